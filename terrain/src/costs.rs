@@ -1,0 +1,147 @@
+//! Cost functions of patch matching (Crause 2015 §6.2, Tasse 2012 §4.2.1):
+//! feature profile (shape) cost, angle cost, overlap cost and noise variance.
+//! Round 1 (worker) uses the first two; round 2 and hole filling (coordinator)
+//! add the others. All are unitless so the paper's weights apply.
+
+/// Tasse 2012 weights: feature dissimilarity and angle differences.
+pub const ALPHA_F: f32 = 5.0;
+pub const ALPHA_A: f32 = 2.0;
+/// Weight of the overlap cost in round 2 (Tasse: α_o = 1).
+pub const ALPHA_O: f32 = 1.0;
+/// Weight of the noise-variance cost. Tasse's 0.001 is for raw variances; ours is a
+/// difference of log variances (unitless, typically 0..3), so a weight of 0.1 gives it
+/// the same minor, tie-breaking role.
+pub const ALPHA_N: f32 = 0.1;
+
+/// Root-mean-square difference of two normalised profiles.
+#[inline]
+pub fn profile_rms(a: &[f32], b: &[f32]) -> f32 {
+    let mut s = 0.0f32;
+    for (x, y) in a.iter().zip(b) {
+        let d = x - y;
+        s += d * d;
+    }
+    (s / a.len().max(1) as f32).sqrt()
+}
+
+/// Angle cost: for every user exit, the squared angular distance (in units of π) to
+/// the nearest candidate exit, averaged; plus 0.5 per missing or extra branch
+/// (Tasse gives candidates of another branch degree a very high cost; a soft penalty
+/// still lets them win when nothing of the right degree exists).
+pub fn angle_cost(user: &[f32], cand: &[f32]) -> f32 {
+    let mismatch = (user.len() as f32 - cand.len() as f32).abs() * 0.5;
+    if user.is_empty() || cand.is_empty() {
+        return mismatch;
+    }
+    let mut s = 0.0;
+    for &u in user {
+        let d = cand
+            .iter()
+            .map(|&c| crate::patch_geometry::angle_diff(u, c))
+            .fold(f32::INFINITY, f32::min)
+            / std::f32::consts::PI;
+        s += d * d;
+    }
+    s / user.len() as f32 + mismatch
+}
+
+/// Overlap cost over the cells where `mask` is set: RMS of the height difference
+/// after removing its mean. The gradient-domain merge absorbs a constant offset, so
+/// this measures what the merge cannot hide (design.md, pitfalls). Returns
+/// `(cost, mean offset, count)`.
+pub fn overlap_cost(out: &[f32], cand: &[f32], mask: &[bool], stride: usize) -> (f32, f32, usize) {
+    let mut n = 0usize;
+    let mut s = 0.0f64;
+    let mut s2 = 0.0f64;
+    let mut i = 0;
+    while i < out.len() {
+        if mask[i] {
+            let d = (cand[i] - out[i]) as f64;
+            s += d;
+            s2 += d * d;
+            n += 1;
+        }
+        i += stride;
+    }
+    if n == 0 {
+        return (0.0, 0.0, 0);
+    }
+    let mean = s / n as f64;
+    let var = (s2 / n as f64 - mean * mean).max(0.0);
+    (var.sqrt() as f32, mean as f32, n)
+}
+
+/// Number of noise-variance levels (Crause uses three).
+pub const NOISE_LEVELS: usize = 3;
+
+/// Multi-resolution noise variance of a square patch (Crause §6.2.3, after Cook &
+/// DeRose 2005): at scales 1, 2 and 4 cells, the variance of the residual between a
+/// cell and the mean of its four neighbours at that distance, over the cells whose
+/// neighbours are all valid (`NaN` = invalid). Returned as `ln(var + 1e-4)` so the
+/// comparison is scale-free. `None` where a level has fewer than 16 samples.
+pub fn noise_variances(p: &[f32], size: usize) -> Option<[f32; NOISE_LEVELS]> {
+    let mut out = [0f32; NOISE_LEVELS];
+    for (l, o) in out.iter_mut().enumerate() {
+        let s = 1usize << l;
+        let mut n = 0usize;
+        let mut acc = 0.0f64;
+        for y in s..size.saturating_sub(s) {
+            for x in s..size - s {
+                let c = p[y * size + x];
+                let nb = p[y * size + x - s] + p[y * size + x + s] + p[(y - s) * size + x] + p[(y + s) * size + x];
+                let r = c - nb * 0.25;
+                if r.is_finite() {
+                    acc += (r as f64) * (r as f64);
+                    n += 1;
+                }
+            }
+        }
+        if n < 16 {
+            return None;
+        }
+        *o = ((acc / n as f64) + 1e-4).ln() as f32;
+    }
+    Some(out)
+}
+
+/// Noise-variance cost: `sqrt(Σ (a_l − b_l)²) / levels` (Crause listing 6.3).
+pub fn noise_cost(a: &[f32; NOISE_LEVELS], b: &[f32; NOISE_LEVELS]) -> f32 {
+    let s: f32 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum();
+    s.sqrt() / NOISE_LEVELS as f32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn overlap_cost_ignores_constant_offsets() {
+        let a: Vec<f32> = (0..100).map(|i| (i as f32 * 0.3).sin() * 50.0).collect();
+        let b: Vec<f32> = a.iter().map(|v| v + 1000.0).collect();
+        let mask = vec![true; 100];
+        let (c, off, n) = overlap_cost(&a, &b, &mask, 1);
+        assert!(c < 1e-2 && (off - 1000.0).abs() < 1e-2 && n == 100);
+        let noisy: Vec<f32> = a.iter().enumerate().map(|(i, v)| v + if i % 2 == 0 { 5.0 } else { -5.0 }).collect();
+        assert!((overlap_cost(&a, &noisy, &mask, 1).0 - 5.0).abs() < 0.05);
+    }
+
+    #[test]
+    fn rougher_patches_have_higher_noise_variance() {
+        let size = 32;
+        let smooth: Vec<f32> = (0..size * size).map(|i| (i % size) as f32 * 2.0).collect();
+        let rough: Vec<f32> = (0..size * size).map(|i| (i % size) as f32 * 2.0 + ((i * 7919) % 13) as f32).collect();
+        let a = noise_variances(&smooth, size).unwrap();
+        let b = noise_variances(&rough, size).unwrap();
+        assert!(a.iter().zip(&b).all(|(x, y)| x < y));
+        assert!(noise_cost(&a, &a) == 0.0 && noise_cost(&a, &b) > 1.0);
+    }
+
+    #[test]
+    fn angle_cost_prefers_matching_structure() {
+        use std::f32::consts::PI;
+        let user = [0.0, PI];
+        assert!(angle_cost(&user, &[0.05, PI - 0.05]) < 0.01);
+        assert!(angle_cost(&user, &[PI / 2.0, -PI / 2.0]) > 0.2);
+        assert!(angle_cost(&user, &[0.0]) >= 0.5);
+    }
+}

@@ -1,0 +1,16 @@
+//! ridgeline-terrain: what coordinator and workers share — the heightfield type,
+//! file I/O, the exemplar library, PPA feature extraction, patch geometry, cost
+//! functions and the shard trait that separates the coordinator from its workers.
+
+pub mod costs;
+pub mod error;
+pub mod feature_extraction;
+pub mod grid;
+pub mod io;
+pub mod library;
+pub mod patch_geometry;
+pub mod shard;
+
+pub use error::{Result, TerrainError};
+pub use feature_extraction::{FeatureGraph, FeatureKind, PpaParams};
+pub use grid::{Grid, Heightfield};

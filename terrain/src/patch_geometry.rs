@@ -1,0 +1,288 @@
+//! Patch geometry shared by both sides: the candidate variants (Tasse 2012 §4.2:
+//! 8 rotations of 45° and 2 mirrors; Crause 2015 §7.3: 6 exact variants for
+//! featureless patches), control points where a feature leaves the circle of radius
+//! patch/4 around a node (Crause §4.2.1), and the perpendicular profile paths that
+//! the feature-profile cost compares (Crause §6.2.1, figure 6.2).
+
+use crate::feature_extraction::FeatureGraph;
+use crate::grid::Grid;
+use std::collections::VecDeque;
+use std::f32::consts::PI;
+
+/// A transform of a candidate patch. `0..8`: rotation by `k * 45°`;
+/// `8`: mirror about the vertical axis (x → −x); `9`: mirror about the horizontal
+/// axis (y → −y).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize)]
+pub struct Variant(pub u8);
+
+/// The 10 variants of a feature candidate.
+pub const FEATURE_VARIANTS: [Variant; 10] =
+    [Variant(0), Variant(1), Variant(2), Variant(3), Variant(4), Variant(5), Variant(6), Variant(7), Variant(8), Variant(9)];
+/// The 6 variants of a featureless candidate: 90° rotations and the two mirrors,
+/// all exact pixel permutations.
+pub const FEATURELESS_VARIANTS: [Variant; 6] = [Variant(0), Variant(2), Variant(4), Variant(6), Variant(8), Variant(9)];
+
+impl Variant {
+    /// Maps an offset in the candidate's source frame to the output frame.
+    pub fn forward(self, x: f32, y: f32) -> (f32, f32) {
+        match self.0 {
+            8 => (-x, y),
+            9 => (x, -y),
+            k => {
+                let (s, c) = rot(k);
+                (c * x - s * y, s * x + c * y)
+            }
+        }
+    }
+
+    /// Maps an offset in the output frame back to the candidate's source frame.
+    pub fn inverse(self, x: f32, y: f32) -> (f32, f32) {
+        match self.0 {
+            8 | 9 => self.forward(x, y),
+            k => {
+                let (s, c) = rot(k);
+                (c * x + s * y, -s * x + c * y)
+            }
+        }
+    }
+
+    /// Maps a direction angle (radians, `atan2(dy, dx)`) from source to output frame.
+    pub fn map_angle(self, a: f32) -> f32 {
+        let (x, y) = self.forward(a.cos(), a.sin());
+        y.atan2(x)
+    }
+
+    /// Whether the variant is an exact pixel permutation (multiple of 90° or a mirror).
+    pub fn is_exact(self) -> bool {
+        self.0 >= 8 || self.0 % 2 == 0
+    }
+}
+
+fn rot(k: u8) -> (f32, f32) {
+    // exact values for multiples of 45° so that 90° variants are exact permutations
+    const H: f32 = std::f32::consts::FRAC_1_SQRT_2;
+    match k % 8 {
+        0 => (0.0, 1.0),
+        1 => (H, H),
+        2 => (1.0, 0.0),
+        3 => (H, -H),
+        4 => (0.0, -1.0),
+        5 => (-H, -H),
+        6 => (-1.0, 0.0),
+        _ => (-H, H),
+    }
+}
+
+/// Smallest absolute difference of two angles, in `[0, π]`.
+pub fn angle_diff(a: f32, b: f32) -> f32 {
+    let mut d = (a - b).rem_euclid(2.0 * PI);
+    if d > PI {
+        d = 2.0 * PI - d;
+    }
+    d
+}
+
+/// Where a feature leaves the circle around a node.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Exit {
+    /// Offset from the node, in cells.
+    pub dx: f32,
+    pub dy: f32,
+    /// `atan2(dy, dx)`.
+    pub angle: f32,
+}
+
+/// Control points of the node `centre`: the points where the feature graph,
+/// walked from `centre` inside the disc of `radius`, leaves the disc. Crossings
+/// within 20° of each other are one exit. Sorted by angle.
+pub fn exits(g: &FeatureGraph, centre: u32, radius: f32) -> Vec<Exit> {
+    let (cx, cy) = g.xy(centre);
+    let r2 = radius * radius;
+    let mut seen = std::collections::HashSet::new();
+    let mut q = VecDeque::from([centre]);
+    seen.insert(centre);
+    let mut raw: Vec<(f32, f32)> = Vec::new();
+    while let Some(p) = q.pop_front() {
+        for n in g.neighbors(p) {
+            if !seen.insert(n) {
+                continue;
+            }
+            let (x, y) = g.xy(n);
+            let (dx, dy) = (x as f32 - cx as f32, y as f32 - cy as f32);
+            if dx * dx + dy * dy >= r2 {
+                raw.push((dx, dy));
+            } else {
+                q.push_back(n);
+            }
+        }
+    }
+    cluster_exits(raw)
+}
+
+fn cluster_exits(raw: Vec<(f32, f32)>) -> Vec<Exit> {
+    if raw.is_empty() {
+        return Vec::new();
+    }
+    let mut pts: Vec<(f32, f32, f32)> = raw.into_iter().map(|(x, y)| (y.atan2(x), x, y)).collect();
+    pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let tol = 20f32.to_radians();
+    // start clustering after the largest gap so clusters do not straddle ±π
+    let n = pts.len();
+    let mut start = 0;
+    let mut best_gap = -1.0;
+    for i in 0..n {
+        let next = pts[(i + 1) % n].0 + if i + 1 == n { 2.0 * PI } else { 0.0 };
+        let gap = next - pts[i].0;
+        if gap > best_gap {
+            best_gap = gap;
+            start = (i + 1) % n;
+        }
+    }
+    let mut clusters: Vec<Vec<(f32, f32)>> = Vec::new();
+    let mut last_angle = f32::NAN;
+    for k in 0..n {
+        let (a, x, y) = pts[(start + k) % n];
+        if clusters.is_empty() || angle_diff(a, last_angle) > tol {
+            clusters.push(Vec::new());
+        }
+        clusters.last_mut().unwrap().push((x, y));
+        last_angle = a;
+    }
+    let mut out: Vec<Exit> = clusters
+        .into_iter()
+        .map(|c| {
+            let n = c.len() as f32;
+            let (sx, sy) = c.iter().fold((0.0, 0.0), |acc, p| (acc.0 + p.0, acc.1 + p.1));
+            let (dx, dy) = (sx / n, sy / n);
+            Exit { dx, dy, angle: dy.atan2(dx) }
+        })
+        .collect();
+    out.sort_by(|a, b| a.angle.total_cmp(&b.angle));
+    out
+}
+
+/// One perpendicular profile path through a control point: offsets from the patch
+/// centre, in the output (user patch) frame.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ProfilePath {
+    pub offsets: Vec<[f32; 2]>,
+}
+
+/// The profile paths of a node: one through each exit and, for an end or path node,
+/// one through the centre, each perpendicular to the feature there, `half_len` cells
+/// each side with samples every `step` cells.
+pub fn profile_paths(exits: &[Exit], half_len: f32, step: f32) -> Vec<ProfilePath> {
+    let mut ctrl: Vec<(f32, f32, f32)> = Vec::new(); // (x, y, tangent angle)
+    match exits.len() {
+        0 => {}
+        1 => ctrl.push((0.0, 0.0, exits[0].angle)),
+        2 => {
+            let (a, b) = (exits[0], exits[1]);
+            ctrl.push((0.0, 0.0, (a.dy - b.dy).atan2(a.dx - b.dx)));
+        }
+        _ => {}
+    }
+    for e in exits {
+        ctrl.push((e.dx, e.dy, e.angle));
+    }
+    let n = (half_len / step).floor() as i32;
+    ctrl.into_iter()
+        .map(|(x, y, t)| {
+            let (nx, ny) = (-t.sin(), t.cos());
+            ProfilePath {
+                offsets: (-n..=n).map(|k| [x + nx * k as f32 * step, y + ny * k as f32 * step]).collect(),
+            }
+        })
+        .collect()
+}
+
+/// Normalises a profile by its own mean and range (floored at `min_range`), so a
+/// binary sketch and real elevations compare by shape (design.md, pitfalls).
+pub fn normalise_profile(v: &mut [f32], min_range: f32) {
+    let n = v.len() as f32;
+    let mean = v.iter().sum::<f32>() / n;
+    let (lo, hi) = v.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |a, &x| (a.0.min(x), a.1.max(x)));
+    let range = (hi - lo).max(min_range);
+    for x in v {
+        *x = (*x - mean) / range;
+    }
+}
+
+/// Extracts the `size x size` patch of `src` centred at (`cx`, `cy`) in variant `v`
+/// (bilinear for the 45° rotations, exact otherwise). Cells outside `src` clamp.
+pub fn extract_patch(src: &Grid<f32>, cx: usize, cy: usize, size: usize, v: Variant) -> Vec<f32> {
+    let half = size as f32 / 2.0 - 0.5;
+    let mut out = Vec::with_capacity(size * size);
+    for j in 0..size {
+        for i in 0..size {
+            let (ox, oy) = (i as f32 - half, j as f32 - half);
+            let (sx, sy) = v.inverse(ox, oy);
+            let (px, py) = (cx as f32 + sx, cy as f32 + sy);
+            if v.is_exact() {
+                let xi = (px.round() as i64).clamp(0, src.width as i64 - 1) as usize;
+                let yi = (py.round() as i64).clamp(0, src.height as i64 - 1) as usize;
+                out.push(src.get(xi, yi));
+            } else {
+                out.push(src.sample_bilinear(px, py));
+            }
+        }
+    }
+    out
+}
+
+/// How far from its centre a patch of `size` reaches in any variant, in cells.
+pub fn patch_reach(size: usize) -> usize {
+    ((size as f32) * std::f32::consts::FRAC_1_SQRT_2).ceil() as usize + 1
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::feature_extraction::FeatureGraph;
+
+    #[test]
+    fn variants_invert_and_map_angles() {
+        for v in FEATURE_VARIANTS {
+            let (x, y) = v.forward(3.0, -2.0);
+            let (bx, by) = v.inverse(x, y);
+            assert!((bx - 3.0).abs() < 1e-5 && (by + 2.0).abs() < 1e-5, "{v:?}");
+            let a = 0.7f32;
+            let m = v.map_angle(a);
+            let (fx, fy) = v.forward(a.cos(), a.sin());
+            assert!(angle_diff(m, fy.atan2(fx)) < 1e-5);
+        }
+        assert!(FEATURELESS_VARIANTS.iter().all(|v| v.is_exact()));
+    }
+
+    #[test]
+    fn exact_variants_are_permutations() {
+        let src = Grid::from_vec(9, 9, (0..81).map(|i| i as f32).collect());
+        for v in FEATURELESS_VARIANTS {
+            let mut p = extract_patch(&src, 4, 4, 8, v);
+            p.sort_by(f32::total_cmp);
+            p.dedup();
+            assert_eq!(p.len(), 64, "{v:?} repeats a pixel");
+        }
+    }
+
+    #[test]
+    fn straight_line_has_two_opposite_exits_and_a_branch_three() {
+        let w = 100;
+        let mut g = FeatureGraph::empty(w, 64);
+        let at = |x: usize, y: usize| (y * w + x) as u32;
+        for x in 5..95 {
+            g.add_edge(at(x, 30), at(x + 1, 30));
+        }
+        let e = exits(&g, at(30, 30), 16.0);
+        assert_eq!(e.len(), 2);
+        assert!(angle_diff(e[0].angle, e[1].angle) > 3.0);
+        for y in 30..60 {
+            g.add_edge(at(30, y), at(30, y + 1));
+        }
+        assert_eq!(exits(&g, at(30, 30), 16.0).len(), 3);
+        let paths = profile_paths(&exits(&g, at(60, 30), 16.0), 16.0, 2.0);
+        // path node: a centre profile plus one per exit, each vertical (perpendicular)
+        assert_eq!(paths.len(), 3);
+        assert!(paths[0].offsets.iter().all(|o| o[0].abs() < 1e-4));
+    }
+}
