@@ -1,1 +1,14 @@
+//! ridgeline coordinator: a job from the sketch to the output file. Start at
+//! [`pipeline`]; each stage is a module named after it.
 
+pub mod graph_cut;
+pub mod hole_filling;
+pub mod merge;
+pub mod pipeline;
+pub mod poisson;
+pub mod quality;
+pub mod selection;
+pub mod sketch;
+pub mod user_patches;
+
+pub use pipeline::{run_job, synthesize, SynthConfig, SynthError, SynthOutput, SynthReport};

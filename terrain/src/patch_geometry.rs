@@ -48,8 +48,11 @@ impl Variant {
 
     /// Maps a direction angle (radians, `atan2(dy, dx)`) from source to output frame.
     pub fn map_angle(self, a: f32) -> f32 {
-        let (x, y) = self.forward(a.cos(), a.sin());
-        y.atan2(x)
+        match self.0 {
+            8 => PI - a,
+            9 => -a,
+            k => a + k as f32 * std::f32::consts::FRAC_PI_4,
+        }
     }
 
     /// Whether the variant is an exact pixel permutation (multiple of 90° or a mirror).
@@ -210,8 +213,10 @@ pub fn normalise_profile(v: &mut [f32], min_range: f32) {
 
 /// Extracts the `size x size` patch of `src` centred at (`cx`, `cy`) in variant `v`
 /// (bilinear for the 45° rotations, exact otherwise). Cells outside `src` clamp.
+/// Patch cell `(i, j)` lies at offset `(i - size/2, j - size/2)` from the centre,
+/// the same convention the output uses when it pastes the patch.
 pub fn extract_patch(src: &Grid<f32>, cx: usize, cy: usize, size: usize, v: Variant) -> Vec<f32> {
-    let half = size as f32 / 2.0 - 0.5;
+    let half = (size / 2) as f32;
     let mut out = Vec::with_capacity(size * size);
     for j in 0..size {
         for i in 0..size {

@@ -1,1 +1,95 @@
+//! ridgeline-worker: the exemplar side of the system. A worker holds a shard of the
+//! exemplar library (loaded once: heights, feature graphs from the on-disk cache,
+//! candidate centres, featureless pool) and answers round 1 of patch matching for
+//! blocks of user patches. [`InProcessShard`] is the embedded implementation of the
+//! coordinator's `ShardScorer` trait; the gRPC service wraps the same store.
 
+pub mod candidates;
+pub mod exemplar_store;
+pub mod feature_cache;
+pub mod patch_matching;
+
+pub use exemplar_store::{load_source, ShardConfig, Source};
+pub use feature_cache::FeatureCache;
+
+use rayon::prelude::*;
+use ridgeline_terrain::library::ExemplarSpec;
+use ridgeline_terrain::shard::{BestSet, FeaturelessCandidate, ShardError, ShardScorer, SourceInfo, UserPatchQuery};
+use std::sync::Arc;
+
+/// A shard served from this process, scored with the rayon CPU kernel.
+#[derive(Debug, Clone)]
+pub struct InProcessShard {
+    sources: Arc<Vec<Source>>,
+    patch: usize,
+}
+
+impl InProcessShard {
+    /// Loads the exemplars `(id, spec)` of this shard in parallel. Exemplars too small
+    /// for a patch are skipped with a warning; any unreadable exemplar is an error.
+    pub fn load(items: &[(u32, ExemplarSpec)], cfg: &ShardConfig) -> Result<Self, exemplar_store::LoadError> {
+        let loaded: Result<Vec<Option<Source>>, _> = items.par_iter().map(|(id, spec)| load_source(*id, spec, cfg)).collect();
+        let sources: Vec<Source> = loaded?.into_iter().flatten().collect();
+        Ok(InProcessShard { sources: Arc::new(sources), patch: cfg.patch })
+    }
+
+    pub fn source_data(&self) -> &[Source] {
+        &self.sources
+    }
+}
+
+impl ShardScorer for InProcessShard {
+    fn sources(&self) -> Vec<SourceInfo> {
+        self.sources
+            .iter()
+            .map(|s| SourceInfo {
+                source: s.id,
+                name: s.name.clone(),
+                width: s.heights.width,
+                height: s.heights.height,
+                feature_nodes: [s.nodes[0].len(), s.nodes[1].len()],
+                featureless: s.featureless.len(),
+                cache_hit: s.cache_hit,
+            })
+            .collect()
+    }
+
+    fn score_block(&self, block: &[UserPatchQuery], k: usize) -> Result<Vec<BestSet>, ShardError> {
+        if k == 0 {
+            return Err(ShardError::BadRequest("k must be at least 1".into()));
+        }
+        for q in block {
+            if q.paths.len() != q.profiles.len() || q.paths.iter().zip(&q.profiles).any(|(p, v)| p.offsets.len() != v.len()) {
+                return Err(ShardError::BadRequest(format!("user patch {}: profile paths and values differ in length", q.id)));
+            }
+            let lim = self.patch as f32 / 2.0;
+            if q.paths.iter().flat_map(|p| &p.offsets).any(|o| !(o[0].abs() <= lim && o[1].abs() <= lim)) {
+                return Err(ShardError::BadRequest(format!("user patch {}: profile reaches outside the patch", q.id)));
+            }
+        }
+        let pairs: Vec<(usize, usize)> = (0..block.len()).flat_map(|b| (0..self.sources.len()).map(move |s| (b, s))).collect();
+        Ok(pairs
+            .par_iter()
+            .map(|&(b, s)| {
+                let _span = tracing::trace_span!("best_set", user_patch = block[b].id, source = self.sources[s].id).entered();
+                patch_matching::best_set(&self.sources[s], &block[b], k, self.patch)
+            })
+            .collect())
+    }
+
+    fn featureless_pool(&self) -> Result<Vec<FeaturelessCandidate>, ShardError> {
+        Ok(self
+            .sources
+            .iter()
+            .flat_map(|s| {
+                s.featureless.iter().map(move |f| FeaturelessCandidate {
+                    source: s.id,
+                    x: f.x,
+                    y: f.y,
+                    pixels: f.pixels.clone(),
+                    noise: f.noise,
+                })
+            })
+            .collect())
+    }
+}

@@ -1,0 +1,300 @@
+//! The job, stage by stage (design.md, Pipeline). Follow a run from here:
+//!
+//! 1. [`crate::sketch::analyse`] — sketch strokes → centre lines → guide field;
+//! 2. exemplar shards are loaded (worker side: `ridgeline_worker::InProcessShard`,
+//!    feature extraction from the on-disk cache);
+//! 3. [`crate::user_patches::user_patches`] — user patches in BFS order with control points;
+//! 4. round 1 — every shard scores blocks of user patches (`ShardScorer::score_block`)
+//!    on a producer thread, while
+//! 5. round 2 — [`crate::selection::select_and_merge`] selects and merges block b as soon
+//!    as every shard has answered for it (Crause 2015, figure 6.9);
+//! 6. [`crate::hole_filling::fill_holes`] — featureless patches until no cell is empty.
+//!
+//! Determinism: round 1 results do not depend on the output, are gathered in (user
+//! patch, source) order and ranked by a total order; round 2 and hole filling run in a
+//! fixed order; parallel loops only map and collect, never reduce floats across
+//! threads. So the bytes of the result do not depend on the thread count.
+
+use crate::hole_filling::{fill_holes, FillError};
+use crate::merge::Canvas;
+use crate::selection::select_and_merge;
+use crate::sketch::{analyse, SketchFeatures};
+use crate::user_patches::{user_patches, UserPatch};
+use ridgeline_terrain::grid::{Grid, Heightfield};
+use ridgeline_terrain::library::{common_cell_size, scan_library, ExemplarSpec};
+use ridgeline_terrain::shard::{BestSet, ScoredCandidate, ShardError, ShardScorer, SourceInfo};
+use ridgeline_terrain::TerrainError;
+use ridgeline_worker::{FeatureCache, InProcessShard, ShardConfig};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Settings of one synthesis job.
+#[derive(Debug, Clone)]
+pub struct SynthConfig {
+    /// Patch side in cells (default 64).
+    pub patch: usize,
+    pub seed: u64,
+    /// Best-set size per source (Crause: 5).
+    pub k: usize,
+    /// User patches per round-1 block.
+    pub block: usize,
+    /// Feature cache folder; `None` disables the cache.
+    pub cache_dir: Option<PathBuf>,
+    /// Largest accepted image side.
+    pub max_side: u32,
+    /// Output cell size in metres; default: the library's most common.
+    pub cell_size: Option<f32>,
+    /// Worker threads; 0 = all cores.
+    pub threads: usize,
+    /// Number of in-process shards the library is split into.
+    pub shards: usize,
+}
+
+impl Default for SynthConfig {
+    fn default() -> Self {
+        SynthConfig {
+            patch: 64,
+            seed: 0,
+            k: 5,
+            block: 16,
+            cache_dir: Some(FeatureCache::default_dir()),
+            max_side: ridgeline_terrain::io::DEFAULT_MAX_SIDE,
+            cell_size: None,
+            threads: 0,
+            shards: 1,
+        }
+    }
+}
+
+/// Errors of a synthesis job.
+#[derive(Debug, thiserror::Error)]
+pub enum SynthError {
+    #[error(transparent)]
+    Terrain(#[from] TerrainError),
+    #[error(transparent)]
+    Load(#[from] ridgeline_worker::exemplar_store::LoadError),
+    #[error("{0}: no usable exemplar (need 16-bit PNG DEMs larger than a patch in every orientation)")]
+    NoExemplars(PathBuf),
+    #[error("worker: {0}")]
+    Shard(#[from] ShardError),
+    #[error(transparent)]
+    Fill(#[from] FillError),
+    #[error("invalid settings: {0}")]
+    Config(String),
+    #[error("thread pool: {0}")]
+    Threads(String),
+}
+
+/// Wall time of one stage.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct StageTiming {
+    pub stage: &'static str,
+    pub seconds: f64,
+}
+
+/// What a job did: per-stage timings and counts.
+#[derive(Debug, Clone, Default, serde::Serialize)]
+pub struct SynthReport {
+    pub width: usize,
+    pub height: usize,
+    pub patch: usize,
+    pub seed: u64,
+    pub cell_size_m: Option<f32>,
+    pub stages: Vec<StageTiming>,
+    pub ridge_patches: usize,
+    pub valley_patches: usize,
+    pub feature_patches_placed: usize,
+    pub candidates_per_user_patch: usize,
+    pub hole_fills: usize,
+    pub cells_filled_by_holes: usize,
+    pub cache_hits: usize,
+    pub exemplars: Vec<SourceInfo>,
+    /// Time the merging side waited for round-1 results.
+    pub wait_for_workers_s: f64,
+}
+
+impl SynthReport {
+    fn stage(&mut self, stage: &'static str, t: Instant) {
+        let seconds = t.elapsed().as_secs_f64();
+        tracing::info!(stage, seconds, "stage done");
+        self.stages.push(StageTiming { stage, seconds });
+    }
+}
+
+/// A finished job.
+pub struct SynthOutput {
+    pub terrain: Heightfield,
+    /// The output after feature placement, before hole filling.
+    pub features_only: Heightfield,
+    pub sketch: SketchFeatures,
+    pub user_patches: Vec<UserPatch>,
+    pub canvas: Canvas,
+    pub report: SynthReport,
+}
+
+/// Loads the exemplar library of `dir` into `cfg.shards` in-process shards,
+/// balanced by file count in name order.
+pub fn load_library(dir: &Path, cfg: &SynthConfig) -> Result<(Vec<Arc<dyn ShardScorer>>, Option<f32>), SynthError> {
+    let specs: Vec<ExemplarSpec> = scan_library(dir)?;
+    if specs.is_empty() {
+        return Err(SynthError::NoExemplars(dir.to_path_buf()));
+    }
+    let cell = cfg.cell_size.or_else(|| common_cell_size(&specs));
+    let shard_cfg = ShardConfig { patch: cfg.patch, out_cell: cell, max_side: cfg.max_side, cache: cfg.cache_dir.clone().map(FeatureCache::new) };
+    let n = cfg.shards.clamp(1, specs.len());
+    let mut shards: Vec<Arc<dyn ShardScorer>> = Vec::new();
+    let items: Vec<(u32, ExemplarSpec)> = specs.into_iter().enumerate().map(|(i, s)| (i as u32, s)).collect();
+    for s in 0..n {
+        let part: Vec<(u32, ExemplarSpec)> = items.iter().filter(|(i, _)| *i as usize % n == s).cloned().collect();
+        shards.push(Arc::new(InProcessShard::load(&part, &shard_cfg)?));
+    }
+    if shards.iter().all(|s| s.sources().is_empty()) {
+        return Err(SynthError::NoExemplars(dir.to_path_buf()));
+    }
+    Ok((shards, cell))
+}
+
+fn thread_pool(threads: usize) -> Result<rayon::ThreadPool, SynthError> {
+    rayon::ThreadPoolBuilder::new().num_threads(threads).build().map_err(|e| SynthError::Threads(e.to_string()))
+}
+
+/// Runs a whole job from files: reads the sketch, loads the library, synthesises.
+pub fn run_job(sketch_path: &Path, exemplar_dir: &Path, cfg: &SynthConfig) -> Result<SynthOutput, SynthError> {
+    validate(cfg)?;
+    let pool = thread_pool(cfg.threads)?;
+    pool.install(|| {
+        let _job = tracing::info_span!("job", sketch = %sketch_path.display(), exemplars = %exemplar_dir.display(), seed = cfg.seed).entered();
+        let sketch = ridgeline_terrain::io::read_sketch(sketch_path, cfg.max_side)?;
+        let t = Instant::now();
+        let (shards, cell) = {
+            let _s = tracing::info_span!("stage", name = "exemplars").entered();
+            load_library(exemplar_dir, cfg)?
+        };
+        let load_s = t.elapsed().as_secs_f64();
+        let mut out = synthesize_in(&sketch, &shards, cfg, &pool)?;
+        out.report.cell_size_m = cell;
+        out.report.stages.insert(0, StageTiming { stage: "exemplars", seconds: load_s });
+        Ok(out)
+    })
+}
+
+fn validate(cfg: &SynthConfig) -> Result<(), SynthError> {
+    if cfg.patch < 8 || cfg.patch > 512 || cfg.patch % 2 != 0 {
+        return Err(SynthError::Config(format!("patch size {} must be even and within 8..=512", cfg.patch)));
+    }
+    if cfg.k == 0 || cfg.block == 0 {
+        return Err(SynthError::Config("k and block must be at least 1".into()));
+    }
+    Ok(())
+}
+
+/// Synthesises a terrain for `sketch` from the given shards.
+pub fn synthesize(sketch: &Grid<u8>, shards: &[Arc<dyn ShardScorer>], cfg: &SynthConfig) -> Result<SynthOutput, SynthError> {
+    validate(cfg)?;
+    let pool = thread_pool(cfg.threads)?;
+    pool.install(|| synthesize_in(sketch, shards, cfg, &pool))
+}
+
+fn synthesize_in(sketch: &Grid<u8>, shards: &[Arc<dyn ShardScorer>], cfg: &SynthConfig, pool: &rayon::ThreadPool) -> Result<SynthOutput, SynthError> {
+    let p = cfg.patch;
+    let mut report = SynthReport { width: sketch.width, height: sketch.height, patch: p, seed: cfg.seed, ..Default::default() };
+    report.exemplars = shards.iter().flat_map(|s| s.sources()).collect();
+    report.cache_hits = report.exemplars.iter().filter(|e| e.cache_hit).count();
+
+    let t = Instant::now();
+    let sk = {
+        let _s = tracing::info_span!("stage", name = "sketch_features").entered();
+        analyse(sketch, p)
+    };
+    report.stage("sketch_features", t);
+
+    let t = Instant::now();
+    let ups = {
+        let _s = tracing::info_span!("stage", name = "user_patches").entered();
+        user_patches(&sk, p)
+    };
+    report.ridge_patches = ups.iter().filter(|u| u.kind == ridgeline_terrain::FeatureKind::Ridge).count();
+    report.valley_patches = ups.len() - report.ridge_patches;
+    tracing::info!(ridge = report.ridge_patches, valley = report.valley_patches, "user patches");
+    report.stage("user_patches", t);
+
+    // rounds 1 and 2, pipelined by block
+    let t = Instant::now();
+    let mut canvas = Canvas::new(sketch.width, sketch.height, p);
+    let blocks: Vec<&[UserPatch]> = ups.chunks(cfg.block).collect();
+    let mut wait = 0.0f64;
+    let mut placed = 0usize;
+    let mut cand_total = 0usize;
+    let mut round1_s = 0.0f64;
+    std::thread::scope(|scope| -> Result<(), SynthError> {
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Result<(Vec<BestSet>, f64), ShardError>>(2);
+        let blocks_ref = &blocks;
+        scope.spawn(move || {
+            pool.install(|| {
+                for (bi, block) in blocks_ref.iter().enumerate() {
+                    let _b = tracing::info_span!("block", index = bi, user_patches = block.len()).entered();
+                    let t = Instant::now();
+                    let queries: Vec<_> = block.iter().map(|u| u.query.clone()).collect();
+                    let mut sets = Vec::new();
+                    for (si, shard) in shards.iter().enumerate() {
+                        let _w = tracing::debug_span!("worker_call", shard = si).entered();
+                        match shard.score_block(&queries, cfg.k) {
+                            Ok(s) => sets.extend(s),
+                            Err(e) => {
+                                let _ = tx.send(Err(e));
+                                return;
+                            }
+                        }
+                    }
+                    if tx.send(Ok((sets, t.elapsed().as_secs_f64()))).is_err() {
+                        return;
+                    }
+                }
+            })
+        });
+        for block in &blocks {
+            let tw = Instant::now();
+            let msg = rx.recv().map_err(|_| ShardError::Unavailable("round-1 producer stopped".into()))?;
+            wait += tw.elapsed().as_secs_f64();
+            let (sets, secs) = msg?;
+            round1_s += secs;
+            for u in block.iter() {
+                let mut cands: Vec<ScoredCandidate> =
+                    sets.iter().filter(|s| s.user_patch == u.id).flat_map(|s| s.entries.iter().cloned()).collect();
+                cands.sort_by(|a, b| a.order(b));
+                cand_total += cands.len();
+                let _m = tracing::debug_span!("merge", user_patch = u.id, candidates = cands.len()).entered();
+                if select_and_merge(&mut canvas, u.cx, u.cy, &cands, cfg.seed).is_some() {
+                    placed += 1;
+                }
+            }
+        }
+        Ok(())
+    })?;
+    report.feature_patches_placed = placed;
+    report.candidates_per_user_patch = if ups.is_empty() { 0 } else { cand_total / ups.len() };
+    report.wait_for_workers_s = wait;
+    report.stages.push(StageTiming { stage: "round1_scoring", seconds: round1_s });
+    report.stage("feature_placement", t);
+    let features_only = canvas.heights.clone();
+
+    let t = Instant::now();
+    let pool_cands = {
+        let mut v = Vec::new();
+        for s in shards {
+            v.extend(s.featureless_pool()?);
+        }
+        v
+    };
+    let fill = {
+        let _s = tracing::info_span!("stage", name = "hole_filling", candidates = pool_cands.len()).entered();
+        fill_holes(&mut canvas, &pool_cands, cfg.seed)?
+    };
+    report.hole_fills = fill.fills;
+    report.cells_filled_by_holes = fill.cells_filled;
+    tracing::info!(fills = fill.fills, cells = fill.cells_filled, "holes filled");
+    report.stage("hole_filling", t);
+
+    Ok(SynthOutput { terrain: canvas.heights.clone(), features_only, sketch: sk, user_patches: ups, canvas, report })
+}

@@ -1,0 +1,120 @@
+//! The shard store: a worker's exemplars, loaded once and kept — heights in metres at
+//! the output cell size, their ridge and valley graphs (from the feature cache when
+//! possible), feature candidate centres and the featureless pool.
+
+use crate::candidates::{feature_nodes, featureless_patches, FeatureNode, FeaturelessPatch};
+use crate::feature_cache::FeatureCache;
+use ridgeline_terrain::feature_extraction::{extract_features, FeatureGraph, FeatureKind, PpaParams};
+use ridgeline_terrain::grid::{box_blur, Heightfield};
+use ridgeline_terrain::library::{load_exemplar, ExemplarSpec};
+use ridgeline_terrain::patch_geometry::patch_reach;
+use ridgeline_terrain::TerrainError;
+
+/// How a shard prepares its exemplars.
+#[derive(Debug, Clone)]
+pub struct ShardConfig {
+    pub patch: usize,
+    /// Output cell size in metres; exemplars of other cell sizes are resampled to it.
+    pub out_cell: Option<f32>,
+    pub max_side: u32,
+    pub cache: Option<FeatureCache>,
+}
+
+/// One loaded exemplar.
+#[derive(Debug)]
+pub struct Source {
+    pub id: u32,
+    pub name: String,
+    pub heights: Heightfield,
+    /// Candidate centres for ridges (`[0]`) and valleys (`[1]`).
+    pub nodes: [Vec<FeatureNode>; 2],
+    pub featureless: Vec<FeaturelessPatch>,
+    /// Floor of a profile's range when normalising it (metres).
+    pub min_range: f32,
+    pub cache_hit: bool,
+}
+
+/// Why an exemplar could not be used.
+#[derive(Debug, thiserror::Error)]
+pub enum LoadError {
+    #[error(transparent)]
+    Terrain(#[from] TerrainError),
+}
+
+/// Robust relief of a heightfield: 98th minus 2nd percentile of a sample of cells.
+fn relief(h: &Heightfield) -> f32 {
+    let mut v: Vec<f32> = h.data.iter().step_by(7).copied().filter(|x| x.is_finite()).collect();
+    if v.len() < 2 {
+        return 0.0;
+    }
+    v.sort_by(f32::total_cmp);
+    let at = |q: f32| v[((v.len() - 1) as f32 * q) as usize];
+    at(0.98) - at(0.02)
+}
+
+/// PPA parameters for an exemplar: profiles of 8 cells each side, a dip of 1.5% of
+/// the exemplar's relief (so dune fields and the Himalaya both yield their main
+/// features, not every bump), branches shorter than 16 cells removed in 3 passes.
+pub fn exemplar_ppa_params(relief_m: f32) -> PpaParams {
+    PpaParams { half_len: 8, dip: (0.015 * relief_m).max(0.5), min_branch: 16.0, passes: 3 }
+}
+
+/// Extracts ridge and valley graphs of an exemplar (smoothed by a 3x3 box first so
+/// single-cell noise does not make candidates).
+pub fn exemplar_features(h: &Heightfield, p: &PpaParams) -> (FeatureGraph, FeatureGraph) {
+    let smooth = box_blur(h, 1, 1);
+    let (r, v) = rayon::join(
+        || extract_features(&smooth, FeatureKind::Ridge, p),
+        || extract_features(&smooth, FeatureKind::Valley, p),
+    );
+    (r, v)
+}
+
+/// Loads one exemplar; `Ok(None)` when it is too small for a patch (skipped with a warning).
+pub fn load_source(id: u32, spec: &ExemplarSpec, cfg: &ShardConfig) -> Result<Option<Source>, LoadError> {
+    let _span = tracing::info_span!("load_exemplar", file = %spec.name()).entered();
+    let heights = load_exemplar(spec, cfg.out_cell, cfg.max_side)?;
+    let reach = patch_reach(cfg.patch);
+    if heights.width <= 2 * reach || heights.height <= 2 * reach {
+        tracing::warn!(file = %spec.path.display(), width = heights.width, height = heights.height,
+            patch = cfg.patch, "exemplar smaller than a patch in every orientation; skipped");
+        return Ok(None);
+    }
+    if heights.data.iter().any(|v| !v.is_finite()) {
+        return Err(TerrainError::Invalid { path: spec.path.clone(), message: "contains non-finite heights".into() }.into());
+    }
+    let rel = relief(&heights);
+    let params = exemplar_ppa_params(rel);
+    let mut cache_hit = false;
+    let graphs = match &cfg.cache {
+        Some(cache) => {
+            let bytes = std::fs::read(&spec.path).map_err(|source| TerrainError::Read { path: spec.path.clone(), source })?;
+            let key = FeatureCache::key(&bytes, &(params, spec.to_metres, spec.cell_size_m, cfg.out_cell, heights.width, heights.height));
+            match cache.get(&key, heights.width, heights.height) {
+                Some(g) => {
+                    cache_hit = true;
+                    g
+                }
+                None => {
+                    let g = exemplar_features(&heights, &params);
+                    cache.put(&key, &g.0, &g.1);
+                    g
+                }
+            }
+        }
+        None => exemplar_features(&heights, &params),
+    };
+    let spacing = (cfg.patch / 8).max(2);
+    let nodes = [feature_nodes(&graphs.0, cfg.patch, spacing), feature_nodes(&graphs.1, cfg.patch, spacing)];
+    let featureless = featureless_patches(&heights, &graphs.0, &graphs.1, cfg.patch);
+    tracing::debug!(ridge_nodes = nodes[0].len(), valley_nodes = nodes[1].len(), featureless = featureless.len(), cache_hit, "exemplar ready");
+    Ok(Some(Source {
+        id,
+        name: spec.name(),
+        heights,
+        nodes,
+        featureless,
+        min_range: (0.02 * rel).max(1.0),
+        cache_hit,
+    }))
+}
