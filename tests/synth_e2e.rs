@@ -1,1 +1,117 @@
+//! End-to-end synthesis on the shared real data (skipped with a message where
+//! ../shared/data is absent).
 
+use ridgeline::merge::{Canvas, Placement};
+use ridgeline::pipeline::{run_job, SynthConfig, SynthOutput};
+use ridgeline::quality::{adherence, max_gradient_jump};
+use ridgeline_terrain::io::encode_tiff_f32;
+use ridgeline_terrain::library::{load_exemplar, scan_library};
+use ridgeline_terrain::patch_geometry::{extract_patch, Variant};
+use ridgeline_terrain::FeatureKind;
+use ridgeline_tests::{shared_data, temp_dir};
+use std::sync::OnceLock;
+
+struct Cold {
+    out: SynthOutput,
+    cache: std::path::PathBuf,
+}
+
+/// small-range-512 with all 16 DEMs, 2 threads, starting from an empty feature cache.
+fn cold_run() -> Option<&'static Cold> {
+    static RUN: OnceLock<Option<Cold>> = OnceLock::new();
+    RUN.get_or_init(|| {
+        let data = shared_data()?;
+        let cache = temp_dir("e2e-cache");
+        let cfg = SynthConfig { threads: 2, cache_dir: Some(cache.clone()), ..Default::default() };
+        let out = run_job(&data.join("sketches/small-range-512.png"), &data.join("dems"), &cfg).expect("synthesis");
+        Some(Cold { out, cache })
+    })
+    .as_ref()
+}
+
+#[test]
+fn full_run_fills_every_pixel_and_follows_the_sketch() {
+    let Some(cold) = cold_run() else { return };
+    let out = &cold.out;
+    assert_eq!((out.terrain.width, out.terrain.height), (512, 512));
+    assert!(out.terrain.data.iter().all(|v| v.is_finite()), "every pixel filled with a finite height");
+    assert_eq!(out.report.exemplars.len(), 16, "all 16 DEMs used");
+    assert!(out.report.ridge_patches > 0 && out.report.valley_patches > 0);
+    for kind in FeatureKind::BOTH {
+        let a = adherence(&out.terrain, out.sketch.graph(kind), kind, 16.0, 4, 8);
+        assert!(a.sampled >= 50, "{kind:?}: only {} samples", a.sampled);
+        assert!(a.fraction() >= 0.9, "{kind:?}: {} of {} sampled centre-line points have the right cross profile", a.matching, a.sampled);
+    }
+}
+
+#[test]
+fn same_bytes_for_one_and_two_threads_and_with_a_warm_cache() {
+    let Some(cold) = cold_run() else { return };
+    let data = shared_data().unwrap();
+    assert_eq!(cold.out.report.cache_hits, 0, "the first run starts from an empty cache");
+    let cfg = SynthConfig { threads: 1, cache_dir: Some(cold.cache.clone()), ..Default::default() };
+    let warm = run_job(&data.join("sketches/small-range-512.png"), &data.join("dems"), &cfg).expect("synthesis");
+    assert_eq!(warm.report.cache_hits, 16, "the second run reads every exemplar's features from the cache");
+    let a = encode_tiff_f32(&cold.out.terrain).unwrap();
+    let b = encode_tiff_f32(&warm.terrain).unwrap();
+    assert!(a == b, "outputs differ between --threads 2 (cold cache) and --threads 1 (warm cache)");
+}
+
+#[test]
+fn a_different_seed_gives_a_different_terrain() {
+    let Some(cold) = cold_run() else { return };
+    let data = shared_data().unwrap();
+    let cfg = SynthConfig { seed: 7, cache_dir: Some(cold.cache.clone()), ..Default::default() };
+    let other = run_job(&data.join("sketches/small-range-512.png"), &data.join("dems"), &cfg).expect("synthesis");
+    assert_ne!(other.terrain, cold.out.terrain);
+}
+
+#[test]
+fn merging_two_offset_real_patches_hides_the_seam() {
+    let Some(data) = shared_data() else { return };
+    let specs = scan_library(&data.join("dems")).unwrap();
+    let patch = 64;
+    let mut worst_ratio = f32::INFINITY;
+    for name in ["appalachians.png", "rockies.png", "highlands.png"] {
+        let spec = specs.iter().find(|s| s.name() == name).expect("dem present");
+        let dem = load_exemplar(spec, None, 32768).unwrap();
+        let a = extract_patch(&dem, 200, 200, patch, Variant(0));
+        let b: Vec<f32> = extract_patch(&dem, 420, 380, patch, Variant(0)).iter().map(|v| v + 500.0).collect();
+        let place = |canvas: &mut Canvas, cx: usize, px: &[f32]| {
+            canvas.place(cx, 32, px, 0.0, Placement { source: 0, src_x: 0, src_y: 0, variant: 0, cx, cy: 32, featureless: true })
+        };
+        // merged: A at x 0..64, B at x 40..104 (24 columns of overlap)
+        let mut merged = Canvas::new(104, 64, patch);
+        place(&mut merged, 32, &a);
+        place(&mut merged, 72, &b);
+        // pasted: B simply overwrites its square
+        let mut pasted = Canvas::new(104, 64, patch);
+        place(&mut pasted, 32, &a);
+        for y in 0..64 {
+            for x in 40..104 {
+                pasted.heights.set(x, y, b[y * patch + (x - 40)]);
+            }
+        }
+        assert!(merged.heights.data.iter().all(|v| v.is_finite()));
+        let jm = max_gradient_jump(&merged.heights, 36, 0, 68, 64);
+        let jp = max_gradient_jump(&pasted.heights, 36, 0, 68, 64);
+        eprintln!("{name}: largest gradient jump merged {jm:.1} m, pasted {jp:.1} m");
+        assert!(jm * 5.0 <= jp, "{name}: merged seam jump {jm} is not 5x below pasting's {jp}");
+        worst_ratio = worst_ratio.min(jp / jm);
+    }
+    eprintln!("smallest pasted/merged jump ratio: {worst_ratio:.1}");
+}
+
+#[test]
+fn a_sketch_without_strokes_is_filled_by_hole_filling_alone() {
+    let Some(data) = shared_data() else { return };
+    let dir = temp_dir("blank");
+    let sketch = image::GrayImage::from_pixel(160, 120, image::Luma([128u8]));
+    let sketch_path = dir.join("blank.png");
+    sketch.save(&sketch_path).unwrap();
+    let cfg = SynthConfig { patch: 32, cache_dir: Some(dir.join("cache")), ..Default::default() };
+    let out = run_job(&sketch_path, &data.join("dems"), &cfg).expect("synthesis");
+    assert_eq!(out.report.ridge_patches + out.report.valley_patches, 0);
+    assert!(out.report.hole_fills > 0);
+    assert!(out.terrain.data.iter().all(|v| v.is_finite()));
+}

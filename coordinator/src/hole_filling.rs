@@ -16,7 +16,6 @@
 //! variance; the five cheapest go through the graph cut as in round 2; the merge is
 //! the same gradient-domain merge as for feature patches.
 
-use crate::graph_cut::{Label, Seam};
 use crate::merge::{Canvas, Placement};
 use crate::selection::{finite_std, graph_cut_choice, jitter, output_patch, REPEAT_PENALTY};
 use rayon::prelude::*;
@@ -145,10 +144,8 @@ pub fn fill_holes(canvas: &mut Canvas, pool: &[FeaturelessCandidate], seed: u64)
     if canvas.heights.count_empty() == w * h {
         // nothing placed (a sketch without strokes): start from one featureless patch
         let c = &pool[(jitter(seed, &[1]) * pool.len() as f32) as usize % pool.len()];
-        let win = canvas.window(w / 2, h / 2);
-        let seam = Seam { labels: vec![Label::New; win.w * win.h], cost: 0.0, edges: 0 };
         let placement = Placement { source: c.source, src_x: c.x, src_y: c.y, variant: 0, cx: w / 2, cy: h / 2, featureless: true };
-        let m = canvas.merge(&win, &win.crop(&c.pixels), &seam, placement);
+        let m = canvas.place(w / 2, h / 2, &c.pixels, 0.0, placement);
         stats.fills += 1;
         stats.cells_filled += m.new_cells;
     }

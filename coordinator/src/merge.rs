@@ -14,6 +14,10 @@ use crate::graph_cut::{Force, Label, Seam};
 use crate::poisson::{PoissonProblem, SolveStats};
 use ridgeline_terrain::grid::{Grid, Heightfield};
 
+/// Relative residual (‖b − Ax‖ / ‖b‖) at which the Poisson solve stops; the solve
+/// starts from the Shepard-deformed patch, which is already close.
+pub const POISSON_TOLERANCE: f64 = 1e-5;
+
 /// The part of a patch centred at (cx, cy) that falls inside the output.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Win {
@@ -181,6 +185,19 @@ impl Canvas {
         }
     }
 
+    /// Places a whole patch (patch x patch cells, raw heights) centred at (cx, cy):
+    /// seam search over the overlap, then the gradient-domain merge.
+    pub fn place(&mut self, cx: usize, cy: usize, pixels: &[f32], keep_radius: f32, placement: Placement) -> MergeStats {
+        let win = self.window(cx, cy);
+        let old = self.old_values(&win);
+        let new = win.crop(pixels);
+        let mu = Self::mean_offset(&old, &new);
+        let shifted: Vec<f32> = new.iter().map(|v| v + mu).collect();
+        let force = self.forces(&win, &old, keep_radius);
+        let seam = crate::graph_cut::find_seam(win.w, win.h, &old, &shifted, &force);
+        self.merge(&win, &new, &seam, placement)
+    }
+
     /// Merges `new` (window-sized, raw heights) along `seam` and records `placement`.
     pub fn merge(&mut self, win: &Win, new: &[f32], seam: &Seam, placement: Placement) -> MergeStats {
         let old = self.old_values(win);
@@ -343,7 +360,7 @@ impl Canvas {
             anchor: &bb,
             lambda: 1e-3,
         };
-        let stats: SolveStats = prob.solve(&mut guess, 1e-6, 400);
+        let stats: SolveStats = prob.solve(&mut guess, POISSON_TOLERANCE, 400);
         let pid = self.placements.len() as u32;
         self.placements.push(placement);
         let mut new_cells = 0;

@@ -163,20 +163,18 @@ fn thread_pool(threads: usize) -> Result<rayon::ThreadPool, SynthError> {
 pub fn run_job(sketch_path: &Path, exemplar_dir: &Path, cfg: &SynthConfig) -> Result<SynthOutput, SynthError> {
     validate(cfg)?;
     let pool = thread_pool(cfg.threads)?;
-    pool.install(|| {
-        let _job = tracing::info_span!("job", sketch = %sketch_path.display(), exemplars = %exemplar_dir.display(), seed = cfg.seed).entered();
-        let sketch = ridgeline_terrain::io::read_sketch(sketch_path, cfg.max_side)?;
-        let t = Instant::now();
-        let (shards, cell) = {
-            let _s = tracing::info_span!("stage", name = "exemplars").entered();
-            load_library(exemplar_dir, cfg)?
-        };
-        let load_s = t.elapsed().as_secs_f64();
-        let mut out = synthesize_in(&sketch, &shards, cfg, &pool)?;
-        out.report.cell_size_m = cell;
-        out.report.stages.insert(0, StageTiming { stage: "exemplars", seconds: load_s });
-        Ok(out)
-    })
+    let _job = tracing::info_span!("job", sketch = %sketch_path.display(), exemplars = %exemplar_dir.display(), seed = cfg.seed).entered();
+    let sketch = ridgeline_terrain::io::read_sketch(sketch_path, cfg.max_side)?;
+    let t = Instant::now();
+    let (shards, cell) = {
+        let _s = tracing::info_span!("stage", name = "exemplars").entered();
+        pool.install(|| load_library(exemplar_dir, cfg))?
+    };
+    let load_s = t.elapsed().as_secs_f64();
+    let mut out = synthesize_in(&sketch, &shards, cfg, &pool)?;
+    out.report.cell_size_m = cell;
+    out.report.stages.insert(0, StageTiming { stage: "exemplars", seconds: load_s });
+    Ok(out)
 }
 
 fn validate(cfg: &SynthConfig) -> Result<(), SynthError> {
@@ -193,9 +191,12 @@ fn validate(cfg: &SynthConfig) -> Result<(), SynthError> {
 pub fn synthesize(sketch: &Grid<u8>, shards: &[Arc<dyn ShardScorer>], cfg: &SynthConfig) -> Result<SynthOutput, SynthError> {
     validate(cfg)?;
     let pool = thread_pool(cfg.threads)?;
-    pool.install(|| synthesize_in(sketch, shards, cfg, &pool))
+    synthesize_in(sketch, shards, cfg, &pool)
 }
 
+/// Runs the stages. Parallel work runs inside `pool.install`; blocking (waiting for
+/// round-1 results) happens outside it, so no pool thread ever waits on another and
+/// a one-thread pool cannot deadlock.
 fn synthesize_in(sketch: &Grid<u8>, shards: &[Arc<dyn ShardScorer>], cfg: &SynthConfig, pool: &rayon::ThreadPool) -> Result<SynthOutput, SynthError> {
     let p = cfg.patch;
     let mut report = SynthReport { width: sketch.width, height: sketch.height, patch: p, seed: cfg.seed, ..Default::default() };
@@ -205,7 +206,7 @@ fn synthesize_in(sketch: &Grid<u8>, shards: &[Arc<dyn ShardScorer>], cfg: &Synth
     let t = Instant::now();
     let sk = {
         let _s = tracing::info_span!("stage", name = "sketch_features").entered();
-        analyse(sketch, p)
+        pool.install(|| analyse(sketch, p))
     };
     report.stage("sketch_features", t);
 
@@ -231,27 +232,25 @@ fn synthesize_in(sketch: &Grid<u8>, shards: &[Arc<dyn ShardScorer>], cfg: &Synth
         let (tx, rx) = std::sync::mpsc::sync_channel::<Result<(Vec<BestSet>, f64), ShardError>>(2);
         let blocks_ref = &blocks;
         scope.spawn(move || {
-            pool.install(|| {
-                for (bi, block) in blocks_ref.iter().enumerate() {
-                    let _b = tracing::info_span!("block", index = bi, user_patches = block.len()).entered();
-                    let t = Instant::now();
-                    let queries: Vec<_> = block.iter().map(|u| u.query.clone()).collect();
-                    let mut sets = Vec::new();
-                    for (si, shard) in shards.iter().enumerate() {
-                        let _w = tracing::debug_span!("worker_call", shard = si).entered();
-                        match shard.score_block(&queries, cfg.k) {
-                            Ok(s) => sets.extend(s),
-                            Err(e) => {
-                                let _ = tx.send(Err(e));
-                                return;
-                            }
+            for (bi, block) in blocks_ref.iter().enumerate() {
+                let _b = tracing::info_span!("block", index = bi, user_patches = block.len()).entered();
+                let t = Instant::now();
+                let queries: Vec<_> = block.iter().map(|u| u.query.clone()).collect();
+                let mut sets = Vec::new();
+                for (si, shard) in shards.iter().enumerate() {
+                    let _w = tracing::debug_span!("worker_call", shard = si).entered();
+                    match pool.install(|| shard.score_block(&queries, cfg.k)) {
+                        Ok(s) => sets.extend(s),
+                        Err(e) => {
+                            let _ = tx.send(Err(e));
+                            return;
                         }
                     }
-                    if tx.send(Ok((sets, t.elapsed().as_secs_f64()))).is_err() {
-                        return;
-                    }
                 }
-            })
+                if tx.send(Ok((sets, t.elapsed().as_secs_f64()))).is_err() {
+                    return;
+                }
+            }
         });
         for block in &blocks {
             let tw = Instant::now();
@@ -265,7 +264,7 @@ fn synthesize_in(sketch: &Grid<u8>, shards: &[Arc<dyn ShardScorer>], cfg: &Synth
                 cands.sort_by(|a, b| a.order(b));
                 cand_total += cands.len();
                 let _m = tracing::debug_span!("merge", user_patch = u.id, candidates = cands.len()).entered();
-                if select_and_merge(&mut canvas, u.cx, u.cy, &cands, cfg.seed).is_some() {
+                if pool.install(|| select_and_merge(&mut canvas, u.cx, u.cy, &cands, cfg.seed)).is_some() {
                     placed += 1;
                 }
             }
@@ -289,7 +288,7 @@ fn synthesize_in(sketch: &Grid<u8>, shards: &[Arc<dyn ShardScorer>], cfg: &Synth
     };
     let fill = {
         let _s = tracing::info_span!("stage", name = "hole_filling", candidates = pool_cands.len()).entered();
-        fill_holes(&mut canvas, &pool_cands, cfg.seed)?
+        pool.install(|| fill_holes(&mut canvas, &pool_cands, cfg.seed))?
     };
     report.hole_fills = fill.fills;
     report.cells_filled_by_holes = fill.cells_filled;

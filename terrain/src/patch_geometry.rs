@@ -78,7 +78,10 @@ fn rot(k: u8) -> (f32, f32) {
 
 /// Smallest absolute difference of two angles, in `[0, π]`.
 pub fn angle_diff(a: f32, b: f32) -> f32 {
-    let mut d = (a - b).rem_euclid(2.0 * PI);
+    let mut d = (a - b).abs();
+    if d > 2.0 * PI {
+        d = d.rem_euclid(2.0 * PI);
+    }
     if d > PI {
         d = 2.0 * PI - d;
     }
@@ -101,16 +104,22 @@ pub struct Exit {
 pub fn exits(g: &FeatureGraph, centre: u32, radius: f32) -> Vec<Exit> {
     let (cx, cy) = g.xy(centre);
     let r2 = radius * radius;
-    let mut seen = std::collections::HashSet::new();
+    // visited cells, in a local square around the centre (exits lie one step outside the disc)
+    let half = radius.ceil() as i64 + 2;
+    let side = (2 * half + 1) as usize;
+    let mut seen = vec![false; side * side];
+    let local = |x: usize, y: usize| ((y as i64 - cy as i64 + half) as usize) * side + (x as i64 - cx as i64 + half) as usize;
     let mut q = VecDeque::from([centre]);
-    seen.insert(centre);
+    seen[local(cx, cy)] = true;
     let mut raw: Vec<(f32, f32)> = Vec::new();
     while let Some(p) = q.pop_front() {
         for n in g.neighbors(p) {
-            if !seen.insert(n) {
+            let (x, y) = g.xy(n);
+            let l = local(x, y);
+            if seen[l] {
                 continue;
             }
-            let (x, y) = g.xy(n);
+            seen[l] = true;
             let (dx, dy) = (x as f32 - cx as f32, y as f32 - cy as f32);
             if dx * dx + dy * dy >= r2 {
                 raw.push((dx, dy));

@@ -12,7 +12,7 @@
 
 use ridgeline_terrain::costs::noise_variances;
 use ridgeline_terrain::feature_extraction::FeatureGraph;
-use ridgeline_terrain::grid::{distance_transform, Grid};
+use ridgeline_terrain::grid::Grid;
 use ridgeline_terrain::patch_geometry::{exits, extract_patch, patch_reach, Variant};
 
 /// One feature candidate centre.
@@ -85,11 +85,23 @@ pub fn featureless_patches(h: &Grid<f32>, ridges: &FeatureGraph, valleys: &Featu
     if w < patch + 2 || hh < patch + 2 {
         return Vec::new();
     }
-    let mut seeds = Grid::new(w, hh, false);
+    let mut feature = Grid::new(w, hh, false);
     for p in ridges.pixels().chain(valleys.pixels()) {
-        seeds.data[p as usize] = true;
+        feature.data[p as usize] = true;
     }
-    let dist = distance_transform(&seeds);
+    // distance from a centre to the nearest feature cell, searched up to patch/2
+    let limit = (patch / 2) as i64;
+    let dist_at = |x: usize, y: usize| -> f32 {
+        let mut best = f32::INFINITY;
+        for dy in -limit..=limit {
+            for dx in -limit..=limit {
+                if feature.get_i(x as i64 + dx, y as i64 + dy) == Some(true) {
+                    best = best.min(((dx * dx + dy * dy) as f32).sqrt());
+                }
+            }
+        }
+        best.min(limit as f32 + 1.0)
+    };
     let half = patch / 2;
     let axis = |n: usize| -> Vec<usize> {
         let (lo, hi) = (half, n - half - 1);
@@ -101,7 +113,7 @@ pub fn featureless_patches(h: &Grid<f32>, ridges: &FeatureGraph, valleys: &Featu
     let mut centres: Vec<(usize, usize, f32)> = Vec::new();
     for &y in &axis(hh) {
         for &x in &axis(w) {
-            centres.push((x, y, dist.get(x, y)));
+            centres.push((x, y, dist_at(x, y)));
         }
     }
     let min_d = patch as f32 / 8.0;

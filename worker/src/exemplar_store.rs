@@ -104,7 +104,7 @@ pub fn load_source(id: u32, spec: &ExemplarSpec, cfg: &ShardConfig) -> Result<Op
         }
         None => exemplar_features(&heights, &params),
     };
-    let spacing = (cfg.patch / 8).max(2);
+    let spacing = (cfg.patch * 5 / 32).max(2);
     let nodes = [feature_nodes(&graphs.0, cfg.patch, spacing), feature_nodes(&graphs.1, cfg.patch, spacing)];
     let featureless = featureless_patches(&heights, &graphs.0, &graphs.1, cfg.patch);
     tracing::debug!(ridge_nodes = nodes[0].len(), valley_nodes = nodes[1].len(), featureless = featureless.len(), cache_hit, "exemplar ready");
