@@ -40,7 +40,12 @@ fn full_run_fills_every_pixel_and_follows_the_sketch() {
     for kind in FeatureKind::BOTH {
         let a = adherence(&out.terrain, out.sketch.graph(kind), kind, 16.0, 4, 8);
         assert!(a.sampled >= 50, "{kind:?}: only {} samples", a.sampled);
-        assert!(a.fraction() >= 0.9, "{kind:?}: {} of {} sampled centre-line points have the right cross profile", a.matching, a.sampled);
+        assert!(
+            a.fraction() >= 0.9,
+            "{kind:?}: {} of {} sampled centre-line points have the right cross profile",
+            a.matching,
+            a.sampled
+        );
     }
 }
 

@@ -1,1 +1,94 @@
-fn main(){}
+//! Synthesis benchmark: per-stage medians of several runs of whole jobs on the shared
+//! data (small-range-512 and mixed-1024 with all 16 DEMs), in three settings measured
+//! in the same run: warm feature cache on all cores (the product's normal case), the
+//! same on one thread, and a cold start without the cache (baseline).
+//!
+//! `cargo bench -p ridgeline --bench synth` (RIDGELINE_BENCH_RUNS sets the run count,
+//! default 5; RIDGELINE_BENCH_SKETCHES a comma-separated subset of sketch names).
+
+use ridgeline::pipeline::{run_job, SynthConfig};
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::time::Instant;
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+fn main() {
+    let data = std::env::var_os("RIDGELINE_SHARED_DATA")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data"));
+    if !data.join("dems").is_dir() {
+        eprintln!("SKIPPED: shared data not found at {} (set RIDGELINE_SHARED_DATA)", data.display());
+        return;
+    }
+    let runs: usize = std::env::var("RIDGELINE_BENCH_RUNS").ok().and_then(|v| v.parse().ok()).unwrap_or(5).max(1);
+    let sketches: Vec<String> = std::env::var("RIDGELINE_BENCH_SKETCHES")
+        .map(|v| v.split(',').map(|s| s.trim().to_string()).collect())
+        .unwrap_or_else(|_| vec!["small-range-512".into(), "mixed-1024".into()]);
+    let cache = std::env::temp_dir().join(format!("ridgeline-bench-cache-{}", std::process::id()));
+    println!(
+        "ridgeline synthesis benchmark: {runs} runs per setting, {} cores available",
+        std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)
+    );
+    for name in &sketches {
+        let sketch = data.join("sketches").join(format!("{name}.png"));
+        let settings: [(&str, SynthConfig); 3] = [
+            ("warm cache, all cores", SynthConfig { cache_dir: Some(cache.clone()), ..Default::default() }),
+            ("warm cache, 1 thread", SynthConfig { cache_dir: Some(cache.clone()), threads: 1, ..Default::default() }),
+            ("no cache (baseline), all cores", SynthConfig { cache_dir: None, ..Default::default() }),
+        ];
+        // fill the cache once
+        run_job(&sketch, &data.join("dems"), &settings[0].1).expect("warm-up run");
+        for (label, cfg) in &settings {
+            let mut stages: BTreeMap<&'static str, Vec<f64>> = BTreeMap::new();
+            let mut order: Vec<&'static str> = Vec::new();
+            let mut totals = Vec::new();
+            let mut wait = Vec::new();
+            let mut counts = (0, 0, 0, 0);
+            for _ in 0..runs {
+                let t = Instant::now();
+                let out = run_job(&sketch, &data.join("dems"), cfg).expect("synthesis");
+                totals.push(t.elapsed().as_secs_f64());
+                wait.push(out.report.wait_for_workers_s);
+                counts = (
+                    out.report.ridge_patches,
+                    out.report.valley_patches,
+                    out.report.hole_fills,
+                    out.report.candidates_per_user_patch,
+                );
+                for s in &out.report.stages {
+                    if !order.contains(&s.stage) {
+                        order.push(s.stage);
+                    }
+                    stages.entry(s.stage).or_default().push(s.seconds);
+                }
+            }
+            println!(
+                "\n{name} — {label} ({} ridge + {} valley user patches, {} hole fills, {} candidates per user patch)",
+                counts.0, counts.1, counts.2, counts.3
+            );
+            for st in order {
+                let note = if st == "round1_scoring" { "  (overlaps feature_placement)" } else { "" };
+                println!("  {st:<20} median {:>8.3} s{note}", median(stages.get_mut(st).unwrap()));
+            }
+            println!("  {:<20} median {:>8.3} s", "wait_for_workers", median(&mut wait));
+            let mut sorted = totals.clone();
+            println!(
+                "  {:<20} median {:>8.3} s  (min {:.3}, max {:.3})",
+                "TOTAL",
+                median(&mut sorted),
+                sorted[0],
+                sorted[sorted.len() - 1]
+            );
+        }
+    }
+    let _ = std::fs::remove_dir_all(&cache);
+}

@@ -383,8 +383,8 @@ mod tests {
         let mut g = FlowGraph::new(9);
         let at = |x: usize, y: usize| y * 3 + x;
         let h01 = [5.0, 1.0, 5.0];
-        for y in 0..3 {
-            g.add_edge(at(0, y), at(1, y), h01[y]);
+        for (y, &c) in h01.iter().enumerate() {
+            g.add_edge(at(0, y), at(1, y), c);
             g.add_edge(at(1, y), at(2, y), 2.0);
             g.constrain(at(0, y), true);
             g.constrain(at(2, y), false);
@@ -466,10 +466,12 @@ mod tests {
                     }
                 }
             }
-            let tw: Vec<(f64, f64)> = (0..n).map(|_| {
-                let (a, b) = (rnd(), rnd());
-                (if a > 7.0 { a } else { 0.0 }, if b > 7.0 { b } else { 0.0 })
-            }).collect();
+            let tw: Vec<(f64, f64)> = (0..n)
+                .map(|_| {
+                    let (a, b) = (rnd(), rnd());
+                    (if a > 7.0 { a } else { 0.0 }, if b > 7.0 { b } else { 0.0 })
+                })
+                .collect();
             let mut g = FlowGraph::new(n);
             for &(a, b, c) in &edges {
                 g.add_edge(a, b, c);

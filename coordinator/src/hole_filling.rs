@@ -144,7 +144,8 @@ pub fn fill_holes(canvas: &mut Canvas, pool: &[FeaturelessCandidate], seed: u64)
     if canvas.heights.count_empty() == w * h {
         // nothing placed (a sketch without strokes): start from one featureless patch
         let c = &pool[(jitter(seed, &[1]) * pool.len() as f32) as usize % pool.len()];
-        let placement = Placement { source: c.source, src_x: c.x, src_y: c.y, variant: 0, cx: w / 2, cy: h / 2, featureless: true };
+        let placement =
+            Placement { source: c.source, src_x: c.x, src_y: c.y, variant: 0, cx: w / 2, cy: h / 2, featureless: true };
         let m = canvas.place(w / 2, h / 2, &c.pixels, 0.0, placement);
         stats.fills += 1;
         stats.cells_filled += m.new_cells;
@@ -187,7 +188,7 @@ pub fn fill_holes(canvas: &mut Canvas, pool: &[FeaturelessCandidate], seed: u64)
         let sample: Vec<(usize, f32)> = full_old
             .iter()
             .enumerate()
-            .filter(|(i, v)| !v.is_nan() && (i % p) % 2 == 0 && (i / p) % 2 == 0)
+            .filter(|(i, v)| !v.is_nan() && (i % p).is_multiple_of(2) && (i / p).is_multiple_of(2))
             .map(|(i, &v)| (i, v))
             .collect();
         let filled = full_old.iter().filter(|v| !v.is_nan()).count();

@@ -99,7 +99,11 @@ fn run(cli: Cli) -> Result<()> {
                 seed: a.seed,
                 threads: a.threads,
                 cell_size: a.cell_size,
-                cache_dir: if a.no_cache { None } else { Some(a.cache_dir.unwrap_or_else(ridgeline_worker::FeatureCache::default_dir)) },
+                cache_dir: if a.no_cache {
+                    None
+                } else {
+                    Some(a.cache_dir.unwrap_or_else(ridgeline_worker::FeatureCache::default_dir))
+                },
                 max_side: a.max_side,
                 ..SynthConfig::default()
             };

@@ -322,9 +322,7 @@ impl Canvas {
         for j in 0..eh {
             for i in 0..ew {
                 let e = j * ew + i;
-                for (step, pos, len, target, delta) in
-                    [(1usize, i, ew, &mut tdx, &delta_x), (ew, j, eh, &mut tdy, &delta_y)]
-                {
+                for (step, pos, len, target, delta) in [(1usize, i, ew, &mut tdx, &delta_x), (ew, j, eh, &mut tdy, &delta_y)] {
                     if pos + 1 >= len {
                         continue;
                     }
@@ -350,16 +348,8 @@ impl Canvas {
                 }
             }
         }
-        let prob = PoissonProblem {
-            w: ew,
-            h: eh,
-            unknown: &unknown,
-            fixed: &fixed,
-            dx: &tdx,
-            dy: &tdy,
-            anchor: &bb,
-            lambda: 1e-3,
-        };
+        let prob =
+            PoissonProblem { w: ew, h: eh, unknown: &unknown, fixed: &fixed, dx: &tdx, dy: &tdy, anchor: &bb, lambda: 1e-3 };
         let stats: SolveStats = prob.solve(&mut guess, POISSON_TOLERANCE, 400);
         let pid = self.placements.len() as u32;
         self.placements.push(placement);

@@ -29,6 +29,9 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
+/// The shards a job talks to.
+pub type Shards = Vec<Arc<dyn ShardScorer>>;
+
 /// Settings of one synthesis job.
 #[derive(Debug, Clone)]
 pub struct SynthConfig {
@@ -112,6 +115,10 @@ pub struct SynthReport {
     pub exemplars: Vec<SourceInfo>,
     /// Time the merging side waited for round-1 results.
     pub wait_for_workers_s: f64,
+    /// Sketch adherence of the result: sampled ridge centre-line points with a
+    /// ridge-shaped cross profile at patch/4, and the same for valleys.
+    pub ridge_adherence: crate::quality::Adherence,
+    pub valley_adherence: crate::quality::Adherence,
 }
 
 impl SynthReport {
@@ -135,15 +142,20 @@ pub struct SynthOutput {
 
 /// Loads the exemplar library of `dir` into `cfg.shards` in-process shards,
 /// balanced by file count in name order.
-pub fn load_library(dir: &Path, cfg: &SynthConfig) -> Result<(Vec<Arc<dyn ShardScorer>>, Option<f32>), SynthError> {
+pub fn load_library(dir: &Path, cfg: &SynthConfig) -> Result<(Shards, Option<f32>), SynthError> {
     let specs: Vec<ExemplarSpec> = scan_library(dir)?;
     if specs.is_empty() {
         return Err(SynthError::NoExemplars(dir.to_path_buf()));
     }
     let cell = cfg.cell_size.or_else(|| common_cell_size(&specs));
-    let shard_cfg = ShardConfig { patch: cfg.patch, out_cell: cell, max_side: cfg.max_side, cache: cfg.cache_dir.clone().map(FeatureCache::new) };
+    let shard_cfg = ShardConfig {
+        patch: cfg.patch,
+        out_cell: cell,
+        max_side: cfg.max_side,
+        cache: cfg.cache_dir.clone().map(FeatureCache::new),
+    };
     let n = cfg.shards.clamp(1, specs.len());
-    let mut shards: Vec<Arc<dyn ShardScorer>> = Vec::new();
+    let mut shards: Shards = Vec::new();
     let items: Vec<(u32, ExemplarSpec)> = specs.into_iter().enumerate().map(|(i, s)| (i as u32, s)).collect();
     for s in 0..n {
         let part: Vec<(u32, ExemplarSpec)> = items.iter().filter(|(i, _)| *i as usize % n == s).cloned().collect();
@@ -163,7 +175,8 @@ fn thread_pool(threads: usize) -> Result<rayon::ThreadPool, SynthError> {
 pub fn run_job(sketch_path: &Path, exemplar_dir: &Path, cfg: &SynthConfig) -> Result<SynthOutput, SynthError> {
     validate(cfg)?;
     let pool = thread_pool(cfg.threads)?;
-    let _job = tracing::info_span!("job", sketch = %sketch_path.display(), exemplars = %exemplar_dir.display(), seed = cfg.seed).entered();
+    let _job = tracing::info_span!("job", sketch = %sketch_path.display(), exemplars = %exemplar_dir.display(), seed = cfg.seed)
+        .entered();
     let sketch = ridgeline_terrain::io::read_sketch(sketch_path, cfg.max_side)?;
     let t = Instant::now();
     let (shards, cell) = {
@@ -178,7 +191,7 @@ pub fn run_job(sketch_path: &Path, exemplar_dir: &Path, cfg: &SynthConfig) -> Re
 }
 
 fn validate(cfg: &SynthConfig) -> Result<(), SynthError> {
-    if cfg.patch < 8 || cfg.patch > 512 || cfg.patch % 2 != 0 {
+    if cfg.patch < 8 || cfg.patch > 512 || !cfg.patch.is_multiple_of(2) {
         return Err(SynthError::Config(format!("patch size {} must be even and within 8..=512", cfg.patch)));
     }
     if cfg.k == 0 || cfg.block == 0 {
@@ -197,7 +210,12 @@ pub fn synthesize(sketch: &Grid<u8>, shards: &[Arc<dyn ShardScorer>], cfg: &Synt
 /// Runs the stages. Parallel work runs inside `pool.install`; blocking (waiting for
 /// round-1 results) happens outside it, so no pool thread ever waits on another and
 /// a one-thread pool cannot deadlock.
-fn synthesize_in(sketch: &Grid<u8>, shards: &[Arc<dyn ShardScorer>], cfg: &SynthConfig, pool: &rayon::ThreadPool) -> Result<SynthOutput, SynthError> {
+fn synthesize_in(
+    sketch: &Grid<u8>,
+    shards: &[Arc<dyn ShardScorer>],
+    cfg: &SynthConfig,
+    pool: &rayon::ThreadPool,
+) -> Result<SynthOutput, SynthError> {
     let p = cfg.patch;
     let mut report = SynthReport { width: sketch.width, height: sketch.height, patch: p, seed: cfg.seed, ..Default::default() };
     report.exemplars = shards.iter().flat_map(|s| s.sources()).collect();
@@ -294,6 +312,9 @@ fn synthesize_in(sketch: &Grid<u8>, shards: &[Arc<dyn ShardScorer>], cfg: &Synth
     report.cells_filled_by_holes = fill.cells_filled;
     tracing::info!(fills = fill.fills, cells = fill.cells_filled, "holes filled");
     report.stage("hole_filling", t);
+    let d = p as f32 / 4.0;
+    report.ridge_adherence = crate::quality::adherence(&canvas.heights, &sk.ridges, ridgeline_terrain::FeatureKind::Ridge, d, 4, 8);
+    report.valley_adherence = crate::quality::adherence(&canvas.heights, &sk.valleys, ridgeline_terrain::FeatureKind::Valley, d, 4, 8);
 
     Ok(SynthOutput { terrain: canvas.heights.clone(), features_only, sketch: sk, user_patches: ups, canvas, report })
 }

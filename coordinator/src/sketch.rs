@@ -84,7 +84,8 @@ fn tent(g: &FeatureGraph, half_width: f32) -> Grid<f32> {
 
 /// Analyses a sketch for patches of `patch` cells.
 pub fn analyse(sketch: &Grid<u8>, patch: usize) -> SketchFeatures {
-    let (ridges, valleys) = rayon::join(|| centre_lines(sketch, FeatureKind::Ridge), || centre_lines(sketch, FeatureKind::Valley));
+    let (ridges, valleys) =
+        rayon::join(|| centre_lines(sketch, FeatureKind::Ridge), || centre_lines(sketch, FeatureKind::Valley));
     let hw = patch as f32 / 4.0;
     let (tr, tv) = rayon::join(|| tent(&ridges, hw), || tent(&valleys, hw));
     let guide = Grid::from_vec(sketch.width, sketch.height, tr.data.iter().zip(&tv.data).map(|(a, b)| a - b).collect());
@@ -95,13 +96,17 @@ pub fn analyse(sketch: &Grid<u8>, patch: usize) -> SketchFeatures {
 mod tests {
     use super::*;
 
-    /// Draws a stroke of `width` cells along y = 0.3 x + 40 from x = 20 to 230.
+    /// Draws a brush stroke (round caps) of `width` cells along y = 0.3 x + 40 from
+    /// x = 20 to 230.
     fn stroke_sketch(width: f32, value: u8) -> Grid<u8> {
         let mut s = Grid::new(256, 192, 128u8);
+        let (ax, ay, bx, by) = (20.0f32, 46.0f32, 230.0f32, 109.0f32);
         for y in 0..192 {
             for x in 0..256 {
-                let xf = (x as f32).clamp(20.0, 230.0);
-                let d = ((y as f32 - (0.3 * xf + 40.0)).abs() / (1.0f32 + 0.09).sqrt()).max((x as f32 - xf).abs());
+                let (px, py) = (x as f32, y as f32);
+                let t =
+                    (((px - ax) * (bx - ax) + (py - ay) * (by - ay)) / ((bx - ax).powi(2) + (by - ay).powi(2))).clamp(0.0, 1.0);
+                let d = (px - (ax + t * (bx - ax))).hypot(py - (ay + t * (by - ay)));
                 if d <= width / 2.0 {
                     s.set(x, y, value);
                 }

@@ -140,9 +140,12 @@ mod tests {
         // consecutive nodes along a branch are 32 apart
         let on_branch: Vec<usize> = nodes.iter().map(|&n| g.xy(n)).filter(|p| p.0 == 130 && p.1 > 100).map(|p| p.1).collect();
         assert_eq!(on_branch[0], 132);
-        for pair in on_branch.windows(2) {
+        let (last, inner) = on_branch.split_last().unwrap();
+        for pair in inner.windows(2) {
             assert_eq!(pair[1] - pair[0], 32);
         }
+        // the leaf, 24 cells past the last regular node, gets a node of its own
+        assert_eq!(*last, 220);
         // no two nodes closer than patch/16
         for (i, &a) in nodes.iter().enumerate() {
             for &b in &nodes[i + 1..] {

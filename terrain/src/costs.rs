@@ -35,11 +35,8 @@ pub fn angle_cost(user: &[f32], cand: &[f32]) -> f32 {
     }
     let mut s = 0.0;
     for &u in user {
-        let d = cand
-            .iter()
-            .map(|&c| crate::patch_geometry::angle_diff(u, c))
-            .fold(f32::INFINITY, f32::min)
-            / std::f32::consts::PI;
+        let d =
+            cand.iter().map(|&c| crate::patch_geometry::angle_diff(u, c)).fold(f32::INFINITY, f32::min) / std::f32::consts::PI;
         s += d * d;
     }
     s / user.len() as f32 + mismatch

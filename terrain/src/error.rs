@@ -22,12 +22,7 @@ pub enum TerrainError {
     #[error("{path}: {message}")]
     Invalid { path: PathBuf, message: String },
     #[error("{path}: image is {width} x {height}, larger than the limit of {limit} pixels per side")]
-    TooLarge {
-        path: PathBuf,
-        width: u32,
-        height: u32,
-        limit: u32,
-    },
+    TooLarge { path: PathBuf, width: u32, height: u32, limit: u32 },
     #[error("{0}")]
     Other(String),
 }

@@ -15,20 +15,12 @@ pub type Heightfield = Grid<f32>;
 
 impl<T: Copy> Grid<T> {
     pub fn new(width: usize, height: usize, fill: T) -> Self {
-        Grid {
-            width,
-            height,
-            data: vec![fill; width * height],
-        }
+        Grid { width, height, data: vec![fill; width * height] }
     }
 
     pub fn from_vec(width: usize, height: usize, data: Vec<T>) -> Self {
         assert_eq!(data.len(), width * height, "grid data length mismatch");
-        Grid {
-            width,
-            height,
-            data,
-        }
+        Grid { width, height, data }
     }
 
     #[inline]
@@ -63,11 +55,7 @@ impl<T: Copy> Grid<T> {
     }
 
     pub fn map<U: Copy>(&self, f: impl Fn(T) -> U) -> Grid<U> {
-        Grid {
-            width: self.width,
-            height: self.height,
-            data: self.data.iter().map(|&v| f(v)).collect(),
-        }
+        Grid { width: self.width, height: self.height, data: self.data.iter().map(|&v| f(v)).collect() }
     }
 }
 
@@ -172,10 +160,7 @@ pub fn distance_transform(seeds: &Grid<bool>) -> Grid<f32> {
         dt1d(&col[..w], &mut d[..w], &mut v, &mut z);
         f[y * w..(y + 1) * w].copy_from_slice(&d[..w]);
     }
-    let data = f
-        .into_iter()
-        .map(|s| if s >= INF * 0.5 { f32::INFINITY } else { s.sqrt() })
-        .collect();
+    let data = f.into_iter().map(|s| if s >= INF * 0.5 { f32::INFINITY } else { s.sqrt() }).collect();
     Grid::from_vec(w, h, data)
 }
 
@@ -275,7 +260,7 @@ mod tests {
             for x in 0..23 {
                 let best = [(3usize, 4usize), (20, 2), (11, 15)]
                     .iter()
-                    .map(|&(sx, sy)| (((x as f32 - sx as f32).powi(2) + (y as f32 - sy as f32).powi(2)).sqrt()))
+                    .map(|&(sx, sy)| ((x as f32 - sx as f32).powi(2) + (y as f32 - sy as f32).powi(2)).sqrt())
                     .fold(f32::INFINITY, f32::min);
                 assert!((dt.get(x, y) - best).abs() < 1e-3, "({x},{y}) {} vs {best}", dt.get(x, y));
             }

@@ -14,38 +14,20 @@ use std::path::{Path, PathBuf};
 pub const DEFAULT_MAX_SIDE: u32 = 32768;
 
 fn decode_err(path: &Path, e: impl std::fmt::Display) -> TerrainError {
-    TerrainError::Decode {
-        path: path.to_path_buf(),
-        message: e.to_string(),
-    }
+    TerrainError::Decode { path: path.to_path_buf(), message: e.to_string() }
 }
 
 fn open_image(path: &Path, max_side: u32) -> Result<image::DynamicImage> {
-    let bytes = std::fs::read(path).map_err(|source| TerrainError::Read {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    let reader = image::ImageReader::new(std::io::Cursor::new(&bytes))
-        .with_guessed_format()
-        .map_err(|e| decode_err(path, e))?;
+    let bytes = std::fs::read(path).map_err(|source| TerrainError::Read { path: path.to_path_buf(), source })?;
+    let reader = image::ImageReader::new(std::io::Cursor::new(&bytes)).with_guessed_format().map_err(|e| decode_err(path, e))?;
     let (w, h) = reader.into_dimensions().map_err(|e| decode_err(path, e))?;
     if w == 0 || h == 0 {
-        return Err(TerrainError::Invalid {
-            path: path.to_path_buf(),
-            message: "image has zero width or height".into(),
-        });
+        return Err(TerrainError::Invalid { path: path.to_path_buf(), message: "image has zero width or height".into() });
     }
     if w > max_side || h > max_side {
-        return Err(TerrainError::TooLarge {
-            path: path.to_path_buf(),
-            width: w,
-            height: h,
-            limit: max_side,
-        });
+        return Err(TerrainError::TooLarge { path: path.to_path_buf(), width: w, height: h, limit: max_side });
     }
-    let reader = image::ImageReader::new(std::io::Cursor::new(&bytes))
-        .with_guessed_format()
-        .map_err(|e| decode_err(path, e))?;
+    let reader = image::ImageReader::new(std::io::Cursor::new(&bytes)).with_guessed_format().map_err(|e| decode_err(path, e))?;
     reader.decode().map_err(|e| decode_err(path, e))
 }
 
@@ -68,17 +50,12 @@ pub fn read_sketch(path: &Path, max_side: u32) -> Result<Grid<u8>> {
 
 /// Writes `bytes` to `path` atomically (temporary file in the same folder, fsync, rename).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let werr = |source| TerrainError::Write {
-        path: path.to_path_buf(),
-        source,
-    };
+    let werr = |source| TerrainError::Write { path: path.to_path_buf(), source };
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    let name = path
-        .file_name()
-        .ok_or_else(|| TerrainError::Other(format!("{}: not a file path", path.display())))?;
+    let name = path.file_name().ok_or_else(|| TerrainError::Other(format!("{}: not a file path", path.display())))?;
     let tmp = dir.join(format!(".{}.{}.tmp", name.to_string_lossy(), std::process::id()));
     let result = (|| {
         let mut f = std::fs::File::create(&tmp)?;
@@ -106,18 +83,14 @@ pub fn encode_tiff_f32(h: &Heightfield) -> Result<Vec<u8>> {
 
 /// Decodes a single-channel 32-bit float TIFF (as written by [`encode_tiff_f32`]).
 pub fn read_tiff_f32(path: &Path) -> Result<Heightfield> {
-    let bytes = std::fs::read(path).map_err(|source| TerrainError::Read {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes = std::fs::read(path).map_err(|source| TerrainError::Read { path: path.to_path_buf(), source })?;
     let mut dec = tiff::decoder::Decoder::new(std::io::Cursor::new(bytes)).map_err(|e| decode_err(path, e))?;
     let (w, h) = dec.dimensions().map_err(|e| decode_err(path, e))?;
     match dec.read_image().map_err(|e| decode_err(path, e))? {
         tiff::decoder::DecodingResult::F32(v) => Ok(Grid::from_vec(w as usize, h as usize, v)),
-        _ => Err(TerrainError::Invalid {
-            path: path.to_path_buf(),
-            message: "expected a 32-bit float single-channel TIFF".into(),
-        }),
+        _ => {
+            Err(TerrainError::Invalid { path: path.to_path_buf(), message: "expected a 32-bit float single-channel TIFF".into() })
+        }
     }
 }
 
@@ -140,16 +113,11 @@ pub fn encode_png16(h: &Heightfield) -> Result<(Vec<u8>, Png16Sidecar)> {
     let (lo, hi) = h.finite_range().unwrap_or((0.0, 0.0));
     let span = (hi - lo) as f64;
     let scale = if span > 0.0 { span / 65535.0 } else { 1.0 };
-    let samples: Vec<u16> = h
-        .data
-        .iter()
-        .map(|&v| (((v - lo) as f64 / scale).round()).clamp(0.0, 65535.0) as u16)
-        .collect();
+    let samples: Vec<u16> = h.data.iter().map(|&v| (((v - lo) as f64 / scale).round()).clamp(0.0, 65535.0) as u16).collect();
     let img = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_raw(h.width as u32, h.height as u32, samples)
         .ok_or_else(|| TerrainError::Other("png buffer size mismatch".into()))?;
     let mut buf = std::io::Cursor::new(Vec::new());
-    img.write_to(&mut buf, image::ImageFormat::Png)
-        .map_err(|e| TerrainError::Other(e.to_string()))?;
+    img.write_to(&mut buf, image::ImageFormat::Png).map_err(|e| TerrainError::Other(e.to_string()))?;
     let side = Png16Sidecar {
         min_elevation: lo as f64,
         max_elevation: hi as f64,
@@ -164,10 +132,7 @@ pub fn encode_png16(h: &Heightfield) -> Result<(Vec<u8>, Png16Sidecar)> {
 /// Writes a heightfield by extension: `.tif`/`.tiff` (32-bit float metres) or
 /// `.png` (16-bit with a `.json` sidecar giving the elevation range and unit).
 pub fn write_heightfield(path: &Path, h: &Heightfield) -> Result<()> {
-    let ext = path
-        .extension()
-        .map(|e| e.to_string_lossy().to_ascii_lowercase())
-        .unwrap_or_default();
+    let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
     match ext.as_str() {
         "tif" | "tiff" => write_atomic(path, &encode_tiff_f32(h)?),
         "png" => {
@@ -217,8 +182,7 @@ pub fn hillshade(h: &Heightfield, cell: f32) -> image::RgbImage {
 /// Writes an RGB image as PNG atomically.
 pub fn write_rgb_png(path: &Path, img: &image::RgbImage) -> Result<()> {
     let mut buf = std::io::Cursor::new(Vec::new());
-    img.write_to(&mut buf, image::ImageFormat::Png)
-        .map_err(|e| TerrainError::Other(format!("{}: {e}", path.display())))?;
+    img.write_to(&mut buf, image::ImageFormat::Png).map_err(|e| TerrainError::Other(format!("{}: {e}", path.display())))?;
     write_atomic(path, &buf.into_inner())
 }
 

@@ -57,7 +57,7 @@ impl Variant {
 
     /// Whether the variant is an exact pixel permutation (multiple of 90° or a mirror).
     pub fn is_exact(self) -> bool {
-        self.0 >= 8 || self.0 % 2 == 0
+        self.0 >= 8 || self.0.is_multiple_of(2)
     }
 }
 
@@ -201,9 +201,7 @@ pub fn profile_paths(exits: &[Exit], half_len: f32, step: f32) -> Vec<ProfilePat
     ctrl.into_iter()
         .map(|(x, y, t)| {
             let (nx, ny) = (-t.sin(), t.cos());
-            ProfilePath {
-                offsets: (-n..=n).map(|k| [x + nx * k as f32 * step, y + ny * k as f32 * step]).collect(),
-            }
+            ProfilePath { offsets: (-n..=n).map(|k| [x + nx * k as f32 * step, y + ny * k as f32 * step]).collect() }
         })
         .collect()
 }

@@ -162,7 +162,8 @@ mod tests {
     #[test]
     fn featureless_centres_avoid_features() {
         let (w, h) = (300, 300);
-        let terrain = Grid::from_vec(w, h, (0..w * h).map(|i| ((i % w) as f32 * 0.1).sin() * 10.0 + (i / w) as f32 * 0.05).collect());
+        let terrain =
+            Grid::from_vec(w, h, (0..w * h).map(|i| ((i % w) as f32 * 0.1).sin() * 10.0 + (i / w) as f32 * 0.05).collect());
         let mut ridges = FeatureGraph::empty(w, h);
         for y in 0..299 {
             ridges.add_edge((y * w + 150) as u32, ((y + 1) * w + 150) as u32);

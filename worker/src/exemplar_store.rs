@@ -63,10 +63,8 @@ pub fn exemplar_ppa_params(relief_m: f32) -> PpaParams {
 /// single-cell noise does not make candidates).
 pub fn exemplar_features(h: &Heightfield, p: &PpaParams) -> (FeatureGraph, FeatureGraph) {
     let smooth = box_blur(h, 1, 1);
-    let (r, v) = rayon::join(
-        || extract_features(&smooth, FeatureKind::Ridge, p),
-        || extract_features(&smooth, FeatureKind::Valley, p),
-    );
+    let (r, v) =
+        rayon::join(|| extract_features(&smooth, FeatureKind::Ridge, p), || extract_features(&smooth, FeatureKind::Valley, p));
     (r, v)
 }
 
@@ -89,7 +87,10 @@ pub fn load_source(id: u32, spec: &ExemplarSpec, cfg: &ShardConfig) -> Result<Op
     let graphs = match &cfg.cache {
         Some(cache) => {
             let bytes = std::fs::read(&spec.path).map_err(|source| TerrainError::Read { path: spec.path.clone(), source })?;
-            let key = FeatureCache::key(&bytes, &(params, spec.to_metres, spec.cell_size_m, cfg.out_cell, heights.width, heights.height));
+            let key = FeatureCache::key(
+                &bytes,
+                &(params, spec.to_metres, spec.cell_size_m, cfg.out_cell, heights.width, heights.height),
+            );
             match cache.get(&key, heights.width, heights.height) {
                 Some(g) => {
                     cache_hit = true;
@@ -107,14 +108,12 @@ pub fn load_source(id: u32, spec: &ExemplarSpec, cfg: &ShardConfig) -> Result<Op
     let spacing = (cfg.patch * 5 / 32).max(2);
     let nodes = [feature_nodes(&graphs.0, cfg.patch, spacing), feature_nodes(&graphs.1, cfg.patch, spacing)];
     let featureless = featureless_patches(&heights, &graphs.0, &graphs.1, cfg.patch);
-    tracing::debug!(ridge_nodes = nodes[0].len(), valley_nodes = nodes[1].len(), featureless = featureless.len(), cache_hit, "exemplar ready");
-    Ok(Some(Source {
-        id,
-        name: spec.name(),
-        heights,
-        nodes,
-        featureless,
-        min_range: (0.02 * rel).max(1.0),
+    tracing::debug!(
+        ridge_nodes = nodes[0].len(),
+        valley_nodes = nodes[1].len(),
+        featureless = featureless.len(),
         cache_hit,
-    }))
+        "exemplar ready"
+    );
+    Ok(Some(Source { id, name: spec.name(), heights, nodes, featureless, min_range: (0.02 * rel).max(1.0), cache_hit }))
 }

@@ -90,12 +90,7 @@ impl FeatureCache {
 
     /// Stores an entry; failures are logged, never fatal (the cache is an optimisation).
     pub fn put(&self, key: &str, ridges: &FeatureGraph, valleys: &FeatureGraph) {
-        let e = Entry {
-            width: ridges.width,
-            height: ridges.height,
-            ridges: ridges.to_sparse(),
-            valleys: valleys.to_sparse(),
-        };
+        let e = Entry { width: ridges.width, height: ridges.height, ridges: ridges.to_sparse(), valleys: valleys.to_sparse() };
         let res = std::fs::create_dir_all(&self.dir)
             .map_err(|e| e.to_string())
             .and_then(|_| serde_json::to_vec(&e).map_err(|e| e.to_string()))

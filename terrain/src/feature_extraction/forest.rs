@@ -193,10 +193,10 @@ impl FeatureGraph {
             *g.mask.get_mut(p as usize)? = m;
         }
         for p in 0..g.mask.len() as u32 {
-            for d in 0..8 {
+            for (d, off) in DIRS.iter().enumerate() {
                 if g.mask[p as usize] & (1 << d) != 0 {
                     let (x, y) = g.xy(p);
-                    let (nx, ny) = (x as i64 + DIRS[d].0, y as i64 + DIRS[d].1);
+                    let (nx, ny) = (x as i64 + off.0, y as i64 + off.1);
                     if nx < 0 || ny < 0 || nx >= width as i64 || ny >= height as i64 {
                         return None;
                     }

@@ -143,11 +143,7 @@ pub fn target_connection(h: &Grid<f32>, cand: &Grid<bool>) -> Vec<Segment> {
                 let se = c(x + 1, y + 1).then(|| hv + h.get(x + 1, y + 1));
                 let sw = (c(x + 1, y) && c(x, y + 1)).then(|| h.get(x + 1, y) + h.get(x, y + 1));
                 match (se, sw) {
-                    (Some(a), Some(b)) => {
-                        if a >= b {
-                            segs.push(Segment { a: i, b: i + w as u32 + 1, weight: a });
-                        }
-                    }
+                    (Some(a), Some(b)) if a >= b => segs.push(Segment { a: i, b: i + w as u32 + 1, weight: a }),
                     (Some(a), None) => segs.push(Segment { a: i, b: i + w as u32 + 1, weight: a }),
                     _ => {}
                 }
