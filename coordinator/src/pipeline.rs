@@ -313,8 +313,10 @@ fn synthesize_in(
     tracing::info!(fills = fill.fills, cells = fill.cells_filled, "holes filled");
     report.stage("hole_filling", t);
     let d = p as f32 / 4.0;
-    report.ridge_adherence = crate::quality::adherence(&canvas.heights, &sk.ridges, ridgeline_terrain::FeatureKind::Ridge, d, 4, 8);
-    report.valley_adherence = crate::quality::adherence(&canvas.heights, &sk.valleys, ridgeline_terrain::FeatureKind::Valley, d, 4, 8);
+    report.ridge_adherence =
+        crate::quality::adherence(&canvas.heights, &sk.ridges, ridgeline_terrain::FeatureKind::Ridge, d, 4, 8);
+    report.valley_adherence =
+        crate::quality::adherence(&canvas.heights, &sk.valleys, ridgeline_terrain::FeatureKind::Valley, d, 4, 8);
 
     Ok(SynthOutput { terrain: canvas.heights.clone(), features_only, sketch: sk, user_patches: ups, canvas, report })
 }
