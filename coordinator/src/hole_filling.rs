@@ -127,10 +127,16 @@ impl Front {
 }
 
 /// Fills every empty cell of the canvas.
-pub fn fill_holes(canvas: &mut Canvas, pool: &[FeaturelessCandidate], seed: u64) -> Result<FillStats, FillError> {
+/// `on_fill` is told how many empty cells are left after each merge.
+pub fn fill_holes(
+    canvas: &mut Canvas,
+    pool: &[FeaturelessCandidate],
+    seed: u64,
+    on_fill: &(dyn Fn(u64) + Sync),
+) -> Result<FillStats, FillError> {
     let mut stats = FillStats::default();
     let (w, h) = (canvas.heights.width, canvas.heights.height);
-    if canvas.heights.count_empty() == 0 {
+    if canvas.empty == 0 {
         return Ok(stats);
     }
     if pool.is_empty() {
@@ -141,7 +147,7 @@ pub fn fill_holes(canvas: &mut Canvas, pool: &[FeaturelessCandidate], seed: u64)
     let mut pool_relief: Vec<f32> = pool.iter().map(|c| finite_std(&c.pixels)).collect();
     pool_relief.sort_by(f32::total_cmp);
     let median_relief = pool_relief[pool_relief.len() / 2].max(1e-3);
-    if canvas.heights.count_empty() == w * h {
+    if canvas.empty == w * h {
         // nothing placed (a sketch without strokes): start from one featureless patch
         let c = &pool[(jitter(seed, &[1]) * pool.len() as f32) as usize % pool.len()];
         let placement =
@@ -234,6 +240,7 @@ pub fn fill_holes(canvas: &mut Canvas, pool: &[FeaturelessCandidate], seed: u64)
         stats.fills += 1;
         stats.cells_filled += m.new_cells;
         stats.cg_iterations += m.cg_iterations;
+        on_fill(canvas.empty as u64);
         // refresh the lattice points whose windows overlap the merged window
         let (x0, x1) = (win.x0.saturating_sub(p / 2), win.x0 + win.w + p / 2);
         let (y0, y1) = (win.y0.saturating_sub(p / 2), win.y0 + win.h + p / 2);
@@ -248,7 +255,7 @@ pub fn fill_holes(canvas: &mut Canvas, pool: &[FeaturelessCandidate], seed: u64)
             }
         }
     }
-    match canvas.heights.count_empty() {
+    match canvas.empty {
         0 => Ok(stats),
         n => Err(FillError::Stalled(n)),
     }

@@ -1,6 +1,8 @@
 //! ridgeline coordinator: a job from the sketch to the output file. Start at
 //! [`pipeline`]; each stage is a module named after it.
 
+pub mod debug_outputs;
+pub mod fetch_dem;
 pub mod graph_cut;
 pub mod hole_filling;
 pub mod merge;

@@ -1,23 +1,38 @@
 //! The `ridgeline` command line. `ridgeline synth` reads a sketch and an exemplar
-//! library, runs [`ridgeline::pipeline`], and writes the terrain (and optionally a
-//! hillshade preview and a JSON report).
+//! library, runs [`ridgeline::pipeline`], and writes the terrain (optionally tiles, a
+//! hillshade preview, debug images and a JSON report); `ridgeline fetch-dem` builds an
+//! exemplar library from public elevation tiles.
 
 use anyhow::{bail, Context, Result};
-use clap::{Parser, Subcommand};
-use ridgeline::pipeline::{run_job, SynthConfig};
-use std::path::PathBuf;
+use clap::{Parser, Subcommand, ValueEnum};
+use ridgeline::fetch_dem::{fetch_area, write_exemplar, BBox, DirSource, HttpSource, TileSource, DEFAULT_URL};
+use ridgeline::pipeline::{run_job, Progress, SynthConfig};
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
 
 #[derive(Parser)]
 #[command(name = "ridgeline", version, about = "Terrain synthesis from a sketch and real elevation data")]
 struct Cli {
+    /// Log format on stderr: human-readable text, or JSON (one event per line, job id on each).
+    #[arg(long, value_enum, default_value_t = LogFormat::Text, global = true)]
+    log_format: LogFormat,
     #[command(subcommand)]
     cmd: Cmd,
 }
 
+#[derive(Clone, Copy, ValueEnum, PartialEq)]
+enum LogFormat {
+    Text,
+    Json,
+}
+
 #[derive(Subcommand)]
 enum Cmd {
-    /// Synthesise a terrain from a sketch and a folder of exemplar DEMs.
+    /// Synthesise a terrain from a sketch and a library of exemplar DEMs.
     Synth(SynthArgs),
+    /// Download public elevation tiles (Terrarium) for an area and write them as an exemplar library.
+    FetchDem(FetchArgs),
 }
 
 #[derive(clap::Args)]
@@ -25,11 +40,12 @@ struct SynthArgs {
     /// Sketch PNG: background 128, white strokes = ridges, black strokes = valleys.
     #[arg(long)]
     sketch: PathBuf,
-    /// Folder of exemplar DEMs (16-bit PNG), optionally with a dems.csv giving
-    /// cell_size_m and vertical_unit per file.
+    /// Exemplar library: a folder of DEMs (.png, .tif, .hgt, .asc; a dems.csv may give
+    /// cell_size_m and vertical_unit per file) or a manifest (.toml or .json).
     #[arg(long)]
     exemplars: PathBuf,
-    /// Output heightfield: .tif (32-bit float metres) or .png (16-bit + .json sidecar).
+    /// Output heightfield: .tif (32-bit float metres), .png (16-bit) or .r16 (raw 16-bit
+    /// little-endian); 16-bit outputs get a .json sidecar mapping samples to metres.
     #[arg(long)]
     out: PathBuf,
     /// Patch side in cells.
@@ -44,6 +60,10 @@ struct SynthArgs {
     /// Output cell size in metres (default: the library's most common).
     #[arg(long)]
     cell_size: Option<f32>,
+    /// Also write the terrain as N x N-sample tiles sharing their borders
+    /// (`{stem}_x{col}_y{row}.{ext}` and `{stem}_tiles.json`).
+    #[arg(long)]
+    tiles: Option<usize>,
     /// Feature cache folder (default: $RIDGELINE_CACHE, $XDG_CACHE_HOME/ridgeline or ~/.cache/ridgeline).
     #[arg(long)]
     cache_dir: Option<PathBuf>,
@@ -53,7 +73,11 @@ struct SynthArgs {
     /// Also write a hillshade preview PNG here.
     #[arg(long)]
     preview: Option<PathBuf>,
-    /// Also write a JSON report (per-stage timings, counts, exemplars) here.
+    /// Write debug images here: detected sketch lines, the terrain before hole
+    /// filling, and a provenance map with legend.
+    #[arg(long)]
+    debug_dir: Option<PathBuf>,
+    /// Also write a JSON report (per-stage timings, counts, cache hits, exemplars used) here.
     #[arg(long)]
     report: Option<PathBuf>,
     /// Refuse images with a side longer than this, before allocating them.
@@ -61,21 +85,72 @@ struct SynthArgs {
     max_side: u32,
 }
 
+#[derive(clap::Args)]
+struct FetchArgs {
+    /// Bounding box west,south,east,north in degrees.
+    #[arg(long, conflicts_with = "area")]
+    bbox: Option<String>,
+    /// A named area (alps, rockies, himalaya, andes, appalachians, highlands, grand-canyon, norway).
+    #[arg(long)]
+    area: Option<String>,
+    /// Tile zoom level (10 ≈ 150 m cells at the equator, 11 ≈ 76 m).
+    #[arg(long, default_value_t = 10)]
+    zoom: u32,
+    /// Folder to write the exemplar and manifest.toml into.
+    #[arg(long)]
+    out: PathBuf,
+    /// Name of the exemplar file (default: the area name, or "bbox").
+    #[arg(long)]
+    name: Option<String>,
+    /// Tile URL template with {z}, {x}, {y}; or a local folder laid out {z}/{x}/{y}.png.
+    #[arg(long, default_value = DEFAULT_URL)]
+    source: String,
+    /// Tile cache folder (default: the feature cache folder).
+    #[arg(long)]
+    cache_dir: Option<PathBuf>,
+    /// Refuse areas needing more tiles than this.
+    #[arg(long, default_value_t = 64)]
+    max_tiles: usize,
+}
+
+fn job_id() -> String {
+    let t = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_nanos()).unwrap_or(0);
+    format!("{:012x}", (t as u64 ^ ((std::process::id() as u64) << 40)) & 0xffff_ffff_ffff)
+}
+
 fn main() -> std::process::ExitCode {
-    tracing_subscriber::fmt()
-        .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()))
-        .with_writer(std::io::stderr)
-        .init();
-    match run(Cli::parse()) {
+    let cli = Cli::parse();
+    let interactive = std::io::stderr().is_terminal() && cli.log_format == LogFormat::Text;
+    // on a terminal the progress bars carry the news; logs stay at warn unless RUST_LOG says otherwise
+    let default_level = if interactive { "warn" } else { "info" };
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| default_level.into());
+    match cli.log_format {
+        LogFormat::Text => tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).init(),
+        LogFormat::Json => tracing_subscriber::fmt()
+            .json()
+            .with_current_span(true)
+            .with_span_list(true)
+            .with_env_filter(filter)
+            .with_writer(std::io::stderr)
+            .init(),
+    }
+    let id = job_id();
+    let span = tracing::info_span!("job", job_id = %id);
+    let _g = span.enter();
+    let human = cli.log_format == LogFormat::Text;
+    match run(cli.cmd, interactive, human) {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            tracing::error!(error = %format!("{e:#}"), "job failed");
+            if human {
+                eprintln!("error: {e:#}");
+            }
             std::process::ExitCode::FAILURE
         }
     }
 }
 
-fn check_out(p: &std::path::Path, allowed: &[&str]) -> Result<()> {
+fn check_out(p: &Path, allowed: &[&str]) -> Result<()> {
     let ext = p.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
     if !allowed.contains(&ext.as_str()) {
         bail!("{}: unsupported extension (use {})", p.display(), allowed.join(", "));
@@ -83,54 +158,136 @@ fn check_out(p: &std::path::Path, allowed: &[&str]) -> Result<()> {
     Ok(())
 }
 
-fn run(cli: Cli) -> Result<()> {
-    match cli.cmd {
-        Cmd::Synth(a) => {
-            // validate every output path before the (long) job starts
-            check_out(&a.out, &["tif", "tiff", "png"])?;
-            if let Some(p) = &a.preview {
-                check_out(p, &["png"])?;
+/// One progress bar per stage, with ETA, on an interactive terminal.
+fn progress_bars() -> Progress {
+    let current: Arc<Mutex<Option<(&'static str, indicatif::ProgressBar)>>> = Arc::new(Mutex::new(None));
+    Progress(Some(Arc::new(move |stage: &'static str, done: u64, total: u64| {
+        let Ok(mut cur) = current.lock() else { return };
+        if cur.as_ref().map(|c| c.0) != Some(stage) {
+            if let Some((_, pb)) = cur.take() {
+                pb.finish();
             }
-            if let Some(p) = &a.report {
-                check_out(p, &["json"])?;
-            }
-            let cfg = SynthConfig {
-                patch: a.patch_size,
-                seed: a.seed,
-                threads: a.threads,
-                cell_size: a.cell_size,
-                cache_dir: if a.no_cache {
-                    None
-                } else {
-                    Some(a.cache_dir.unwrap_or_else(ridgeline_worker::FeatureCache::default_dir))
-                },
-                max_side: a.max_side,
-                ..SynthConfig::default()
-            };
-            let out = run_job(&a.sketch, &a.exemplars, &cfg).context("synthesis failed")?;
-            let t = std::time::Instant::now();
-            ridgeline_terrain::io::write_heightfield(&a.out, &out.terrain)?;
-            if let Some(p) = &a.preview {
-                let cell = out.report.cell_size_m.unwrap_or(1.0);
-                ridgeline_terrain::io::write_rgb_png(p, &ridgeline_terrain::io::hillshade(&out.terrain, cell))?;
-            }
-            let mut report = out.report;
-            report.stages.push(ridgeline::pipeline::StageTiming { stage: "write", seconds: t.elapsed().as_secs_f64() });
-            if let Some(p) = &a.report {
-                ridgeline_terrain::io::write_atomic(p, &serde_json::to_vec_pretty(&report)?)?;
-            }
-            let total: f64 = report.stages.iter().filter(|s| s.stage != "round1_scoring").map(|s| s.seconds).sum();
-            eprintln!(
-                "wrote {} ({} x {}), {} ridge + {} valley patches, {} hole fills, {:.2} s",
-                a.out.display(),
-                report.width,
-                report.height,
-                report.ridge_patches,
-                report.valley_patches,
-                report.hole_fills,
-                total
+            let pb = indicatif::ProgressBar::new(total.max(1));
+            pb.set_style(
+                indicatif::ProgressStyle::with_template("{prefix:>18} [{bar:40}] {pos}/{len} ({eta})")
+                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+                    .progress_chars("=> "),
             );
-            Ok(())
+            pb.set_prefix(stage);
+            *cur = Some((stage, pb));
+        }
+        if let Some((_, pb)) = cur.as_ref() {
+            pb.set_length(total.max(1));
+            pb.set_position(done);
+            if done >= total {
+                pb.finish();
+            }
+        }
+    })))
+}
+
+fn run(cmd: Cmd, interactive: bool, human: bool) -> Result<()> {
+    match cmd {
+        Cmd::Synth(a) => synth(a, interactive, human),
+        Cmd::FetchDem(a) => fetch(a),
+    }
+}
+
+fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
+    // validate every output path before the (long) job starts
+    check_out(&a.out, &ridgeline_terrain::outputs::OUTPUT_EXTENSIONS)?;
+    if let Some(p) = &a.preview {
+        check_out(p, &["png"])?;
+    }
+    if let Some(p) = &a.report {
+        check_out(p, &["json"])?;
+    }
+    if let Some(n) = a.tiles {
+        if n < 2 {
+            bail!("--tiles {n}: a tile needs at least 2 x 2 samples");
         }
     }
+    let cfg = SynthConfig {
+        patch: a.patch_size,
+        seed: a.seed,
+        threads: a.threads,
+        cell_size: a.cell_size,
+        cache_dir: if a.no_cache { None } else { Some(a.cache_dir.unwrap_or_else(ridgeline_worker::FeatureCache::default_dir)) },
+        max_side: a.max_side,
+        progress: if interactive { progress_bars() } else { Progress::default() },
+        ..SynthConfig::default()
+    };
+    let out = run_job(&a.sketch, &a.exemplars, &cfg).context("synthesis failed")?;
+    let t = std::time::Instant::now();
+    let cell = out.report.cell_size_m;
+    ridgeline_terrain::outputs::write_heightfield_with_cell(&a.out, &out.terrain, cell)?;
+    if let Some(n) = a.tiles {
+        let idx = ridgeline_terrain::outputs::write_tiles(&a.out, &out.terrain, n, cell)?;
+        tracing::info!(index = %idx.display(), "tiles written");
+    }
+    if let Some(p) = &a.preview {
+        ridgeline_terrain::io::write_rgb_png(p, &ridgeline_terrain::io::hillshade(&out.terrain, cell.unwrap_or(1.0)))?;
+    }
+    if let Some(d) = &a.debug_dir {
+        ridgeline::debug_outputs::write_debug_outputs(d, &out, &out.sketch_image, cell.unwrap_or(1.0))?;
+    }
+    let mut report = out.report;
+    report.stages.push(ridgeline::pipeline::StageTiming { stage: "write", seconds: t.elapsed().as_secs_f64() });
+    if let Some(p) = &a.report {
+        ridgeline_terrain::io::write_atomic(p, &serde_json::to_vec_pretty(&report)?)?;
+    }
+    let total: f64 = report.stages.iter().filter(|s| s.stage != "round1_scoring").map(|s| s.seconds).sum();
+    tracing::info!(out = %a.out.display(), seconds = total, "terrain written");
+    for f in &report.fallbacks {
+        tracing::warn!(note = %f, "fallback");
+    }
+    if !human {
+        return Ok(());
+    }
+    eprintln!(
+        "wrote {} ({} x {}), {} ridge + {} valley patches, {} hole fills, {:.2} s",
+        a.out.display(),
+        report.width,
+        report.height,
+        report.ridge_patches,
+        report.valley_patches,
+        report.hole_fills,
+        total
+    );
+    for f in &report.fallbacks {
+        eprintln!("note: {f}");
+    }
+    for s in &report.skipped_exemplars {
+        eprintln!("note: skipped exemplar {}", s.reason);
+    }
+    Ok(())
+}
+
+fn fetch(a: FetchArgs) -> Result<()> {
+    let (bbox, default_name) = match (&a.bbox, &a.area) {
+        (Some(b), None) => (BBox::parse(b)?, "bbox".to_string()),
+        (None, Some(n)) => (BBox::named(n)?, n.to_ascii_lowercase()),
+        _ => bail!("give either --bbox west,south,east,north or --area NAME"),
+    };
+    let name = a.name.unwrap_or(default_name);
+    if name.is_empty() || name.contains(['/', '\\']) || name.starts_with('.') {
+        bail!("--name '{name}': use a plain file name");
+    }
+    let cache = a.cache_dir.unwrap_or_else(ridgeline_worker::FeatureCache::default_dir);
+    let source: Box<dyn TileSource> = if Path::new(&a.source).is_dir() {
+        Box::new(DirSource(PathBuf::from(&a.source)))
+    } else {
+        Box::new(HttpSource::new(&a.source))
+    };
+    let (h, cell) = fetch_area(bbox, a.zoom, source.as_ref(), &cache, a.max_tiles)?;
+    let manifest = write_exemplar(&a.out, &name, &h, cell)?;
+    eprintln!(
+        "wrote {} x {} cells at {:.1} m to {}; use --exemplars {}",
+        h.width,
+        h.height,
+        cell,
+        a.out.display(),
+        manifest.display()
+    );
+    Ok(())
 }

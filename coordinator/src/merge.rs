@@ -83,6 +83,8 @@ pub struct Canvas {
     pub provenance: Grid<u32>,
     pub placements: Vec<Placement>,
     pub patch: usize,
+    /// Number of empty cells left.
+    pub empty: usize,
 }
 
 /// Statistics of one merge.
@@ -101,6 +103,7 @@ impl Canvas {
             provenance: Grid::new(width, height, u32::MAX),
             placements: Vec::new(),
             patch,
+            empty: width * height,
         }
     }
 
@@ -359,6 +362,9 @@ impl Canvas {
                 let e = (j + oy) * ew + (i + ox);
                 if unknown[e] {
                     let (gx, gy) = (win.x0 + i, win.y0 + j);
+                    if self.heights.get(gx, gy).is_nan() {
+                        self.empty -= 1;
+                    }
                     self.heights.set(gx, gy, guess[e]);
                     self.provenance.set(gx, gy, pid);
                     new_cells += 1;

@@ -52,6 +52,29 @@ pub struct SynthConfig {
     pub threads: usize,
     /// Number of in-process shards the library is split into.
     pub shards: usize,
+    /// Called as work advances: (stage, done, total).
+    pub progress: Progress,
+}
+
+/// A progress callback: `(stage, done, total)`.
+#[derive(Clone, Default)]
+pub struct Progress(pub Option<ProgressFn>);
+
+/// The callback behind [`Progress`].
+pub type ProgressFn = Arc<dyn Fn(&'static str, u64, u64) + Send + Sync>;
+
+impl Progress {
+    pub fn report(&self, stage: &'static str, done: u64, total: u64) {
+        if let Some(f) = &self.0 {
+            f(stage, done, total);
+        }
+    }
+}
+
+impl std::fmt::Debug for Progress {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(if self.0.is_some() { "Progress(callback)" } else { "Progress(none)" })
+    }
 }
 
 impl Default for SynthConfig {
@@ -66,6 +89,7 @@ impl Default for SynthConfig {
             cell_size: None,
             threads: 0,
             shards: 1,
+            progress: Progress::default(),
         }
     }
 }
@@ -75,10 +99,8 @@ impl Default for SynthConfig {
 pub enum SynthError {
     #[error(transparent)]
     Terrain(#[from] TerrainError),
-    #[error(transparent)]
-    Load(#[from] ridgeline_worker::exemplar_store::LoadError),
-    #[error("{0}: no usable exemplar (need 16-bit PNG DEMs larger than a patch in every orientation)")]
-    NoExemplars(PathBuf),
+    #[error("{0}: no usable exemplar (DEMs in PNG, TIFF, HGT or ASCII grid, larger than a patch in every orientation){1}")]
+    NoExemplars(PathBuf, String),
     #[error("worker: {0}")]
     Shard(#[from] ShardError),
     #[error(transparent)]
@@ -113,6 +135,11 @@ pub struct SynthReport {
     pub cells_filled_by_holes: usize,
     pub cache_hits: usize,
     pub exemplars: Vec<SourceInfo>,
+    pub skipped_exemplars: Vec<ridgeline_terrain::shard::SkippedExemplar>,
+    /// Patches placed from each exemplar (feature and hole-filling).
+    pub placements_per_exemplar: std::collections::BTreeMap<String, usize>,
+    /// User patches matched by a fallback (no candidates of their own kind).
+    pub fallbacks: Vec<String>,
     /// Time the merging side waited for round-1 results.
     pub wait_for_workers_s: f64,
     /// Sketch adherence of the result: sampled ridge centre-line points with a
@@ -132,6 +159,8 @@ impl SynthReport {
 /// A finished job.
 pub struct SynthOutput {
     pub terrain: Heightfield,
+    /// The sketch as read.
+    pub sketch_image: Grid<u8>,
     /// The output after feature placement, before hole filling.
     pub features_only: Heightfield,
     pub sketch: SketchFeatures,
@@ -145,7 +174,7 @@ pub struct SynthOutput {
 pub fn load_library(dir: &Path, cfg: &SynthConfig) -> Result<(Shards, Option<f32>), SynthError> {
     let specs: Vec<ExemplarSpec> = scan_library(dir)?;
     if specs.is_empty() {
-        return Err(SynthError::NoExemplars(dir.to_path_buf()));
+        return Err(SynthError::NoExemplars(dir.to_path_buf(), String::new()));
     }
     let cell = cfg.cell_size.or_else(|| common_cell_size(&specs));
     let shard_cfg = ShardConfig {
@@ -159,12 +188,40 @@ pub fn load_library(dir: &Path, cfg: &SynthConfig) -> Result<(Shards, Option<f32
     let items: Vec<(u32, ExemplarSpec)> = specs.into_iter().enumerate().map(|(i, s)| (i as u32, s)).collect();
     for s in 0..n {
         let part: Vec<(u32, ExemplarSpec)> = items.iter().filter(|(i, _)| *i as usize % n == s).cloned().collect();
-        shards.push(Arc::new(InProcessShard::load(&part, &shard_cfg)?));
+        shards.push(Arc::new(InProcessShard::load(&part, &shard_cfg)));
     }
     if shards.iter().all(|s| s.sources().is_empty()) {
-        return Err(SynthError::NoExemplars(dir.to_path_buf()));
+        let why: Vec<String> = shards.iter().flat_map(|s| s.skipped()).map(|s| format!("\n  skipped {}", s.reason)).collect();
+        return Err(SynthError::NoExemplars(dir.to_path_buf(), why.concat()));
     }
     Ok((shards, cell))
+}
+
+/// The fallback for a user patch whose kind no exemplar offers: a valley turned
+/// upside down is a ridge (and vice versa), so the other kind's candidates are
+/// matched against the negated profiles and their pixels negated.
+fn inverted_candidates(shards: &[Arc<dyn ShardScorer>], u: &UserPatch, k: usize) -> Result<Vec<ScoredCandidate>, ShardError> {
+    let mut q = u.query.clone();
+    q.kind = match u.kind {
+        ridgeline_terrain::FeatureKind::Ridge => ridgeline_terrain::FeatureKind::Valley,
+        ridgeline_terrain::FeatureKind::Valley => ridgeline_terrain::FeatureKind::Ridge,
+    };
+    for p in &mut q.profiles {
+        for v in p.iter_mut() {
+            *v = -*v;
+        }
+    }
+    let mut out = Vec::new();
+    for s in shards {
+        for set in s.score_block(std::slice::from_ref(&q), k)? {
+            out.extend(set.entries.into_iter().map(|mut c| {
+                c.pixels.iter_mut().for_each(|v| *v = -*v);
+                c
+            }));
+        }
+    }
+    out.sort_by(|a, b| a.order(b));
+    Ok(out)
 }
 
 fn thread_pool(threads: usize) -> Result<rayon::ThreadPool, SynthError> {
@@ -175,8 +232,9 @@ fn thread_pool(threads: usize) -> Result<rayon::ThreadPool, SynthError> {
 pub fn run_job(sketch_path: &Path, exemplar_dir: &Path, cfg: &SynthConfig) -> Result<SynthOutput, SynthError> {
     validate(cfg)?;
     let pool = thread_pool(cfg.threads)?;
-    let _job = tracing::info_span!("job", sketch = %sketch_path.display(), exemplars = %exemplar_dir.display(), seed = cfg.seed)
-        .entered();
+    let _job =
+        tracing::info_span!("synth", sketch = %sketch_path.display(), exemplars = %exemplar_dir.display(), seed = cfg.seed)
+            .entered();
     let sketch = ridgeline_terrain::io::read_sketch(sketch_path, cfg.max_side)?;
     let t = Instant::now();
     let (shards, cell) = {
@@ -219,6 +277,7 @@ fn synthesize_in(
     let p = cfg.patch;
     let mut report = SynthReport { width: sketch.width, height: sketch.height, patch: p, seed: cfg.seed, ..Default::default() };
     report.exemplars = shards.iter().flat_map(|s| s.sources()).collect();
+    report.skipped_exemplars = shards.iter().flat_map(|s| s.skipped()).collect();
     report.cache_hits = report.exemplars.iter().filter(|e| e.cache_hit).count();
 
     let t = Instant::now();
@@ -246,10 +305,13 @@ fn synthesize_in(
     let mut placed = 0usize;
     let mut cand_total = 0usize;
     let mut round1_s = 0.0f64;
+    let mut fallbacks = Vec::new();
     std::thread::scope(|scope| -> Result<(), SynthError> {
         let (tx, rx) = std::sync::mpsc::sync_channel::<Result<(Vec<BestSet>, f64), ShardError>>(2);
         let blocks_ref = &blocks;
+        let job_span = tracing::Span::current();
         scope.spawn(move || {
+            let _g = job_span.enter();
             for (bi, block) in blocks_ref.iter().enumerate() {
                 let _b = tracing::info_span!("block", index = bi, user_patches = block.len()).entered();
                 let t = Instant::now();
@@ -280,11 +342,27 @@ fn synthesize_in(
                 let mut cands: Vec<ScoredCandidate> =
                     sets.iter().filter(|s| s.user_patch == u.id).flat_map(|s| s.entries.iter().cloned()).collect();
                 cands.sort_by(|a, b| a.order(b));
+                if cands.is_empty() {
+                    cands = pool.install(|| inverted_candidates(shards, u, cfg.k))?;
+                    let what =
+                        if cands.is_empty() { "left to hole filling" } else { "used inverted candidates of the other kind" };
+                    let note = format!(
+                        "user patch {} ({} at {},{}): no {} candidates in the library; {what}",
+                        u.id,
+                        u.kind.name(),
+                        u.cx,
+                        u.cy,
+                        u.kind.name()
+                    );
+                    tracing::warn!("{note}");
+                    fallbacks.push(note);
+                }
                 cand_total += cands.len();
                 let _m = tracing::debug_span!("merge", user_patch = u.id, candidates = cands.len()).entered();
                 if pool.install(|| select_and_merge(&mut canvas, u.cx, u.cy, &cands, cfg.seed)).is_some() {
                     placed += 1;
                 }
+                cfg.progress.report("feature placement", u.id as u64 + 1, ups.len() as u64);
             }
         }
         Ok(())
@@ -292,6 +370,7 @@ fn synthesize_in(
     report.feature_patches_placed = placed;
     report.candidates_per_user_patch = if ups.is_empty() { 0 } else { cand_total / ups.len() };
     report.wait_for_workers_s = wait;
+    report.fallbacks = fallbacks;
     report.stages.push(StageTiming { stage: "round1_scoring", seconds: round1_s });
     report.stage("feature_placement", t);
     let features_only = canvas.heights.clone();
@@ -306,7 +385,9 @@ fn synthesize_in(
     };
     let fill = {
         let _s = tracing::info_span!("stage", name = "hole_filling", candidates = pool_cands.len()).entered();
-        pool.install(|| fill_holes(&mut canvas, &pool_cands, cfg.seed))?
+        let empty = canvas.empty as u64;
+        let on_fill = |left: u64| cfg.progress.report("hole filling", empty - left, empty);
+        pool.install(|| fill_holes(&mut canvas, &pool_cands, cfg.seed, &on_fill))?
     };
     report.hole_fills = fill.fills;
     report.cells_filled_by_holes = fill.cells_filled;
@@ -318,5 +399,17 @@ fn synthesize_in(
     report.valley_adherence =
         crate::quality::adherence(&canvas.heights, &sk.valleys, ridgeline_terrain::FeatureKind::Valley, d, 4, 8);
 
-    Ok(SynthOutput { terrain: canvas.heights.clone(), features_only, sketch: sk, user_patches: ups, canvas, report })
+    for pl in &canvas.placements {
+        let name = report.exemplars.iter().find(|e| e.source == pl.source).map(|e| e.name.clone()).unwrap_or_default();
+        *report.placements_per_exemplar.entry(name).or_default() += 1;
+    }
+    Ok(SynthOutput {
+        terrain: canvas.heights.clone(),
+        sketch_image: sketch.clone(),
+        features_only,
+        sketch: sk,
+        user_patches: ups,
+        canvas,
+        report,
+    })
 }

@@ -1,4 +1,4 @@
-//! Reading DEMs and sketches, writing terrains and previews.
+//! Reading PNG DEMs and sketches, atomic writes, hillshade previews.
 //!
 //! PNG decoding goes through `image`; 32-bit float TIFF through the `tiff` crate
 //! (the `image` crate cannot write single-channel float TIFF). Every output is
@@ -7,6 +7,7 @@
 
 use crate::error::{Result, TerrainError};
 use crate::grid::{Grid, Heightfield};
+pub use crate::outputs::{encode_tiff_f32, write_heightfield, Png16Sidecar};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -17,9 +18,14 @@ fn decode_err(path: &Path, e: impl std::fmt::Display) -> TerrainError {
     TerrainError::Decode { path: path.to_path_buf(), message: e.to_string() }
 }
 
-fn open_image(path: &Path, max_side: u32) -> Result<image::DynamicImage> {
-    let bytes = std::fs::read(path).map_err(|source| TerrainError::Read { path: path.to_path_buf(), source })?;
-    let reader = image::ImageReader::new(std::io::Cursor::new(&bytes)).with_guessed_format().map_err(|e| decode_err(path, e))?;
+fn read_bytes(path: &Path) -> Result<Vec<u8>> {
+    std::fs::read(path).map_err(|source| TerrainError::Read { path: path.to_path_buf(), source })
+}
+
+/// Decodes image bytes (`path` names them in errors). The size is checked from the
+/// header, before any pixel buffer is allocated.
+pub fn decode_image(path: &Path, bytes: &[u8], max_side: u32) -> Result<image::DynamicImage> {
+    let reader = image::ImageReader::new(std::io::Cursor::new(bytes)).with_guessed_format().map_err(|e| decode_err(path, e))?;
     let (w, h) = reader.into_dimensions().map_err(|e| decode_err(path, e))?;
     if w == 0 || h == 0 {
         return Err(TerrainError::Invalid { path: path.to_path_buf(), message: "image has zero width or height".into() });
@@ -27,25 +33,38 @@ fn open_image(path: &Path, max_side: u32) -> Result<image::DynamicImage> {
     if w > max_side || h > max_side {
         return Err(TerrainError::TooLarge { path: path.to_path_buf(), width: w, height: h, limit: max_side });
     }
-    let reader = image::ImageReader::new(std::io::Cursor::new(&bytes)).with_guessed_format().map_err(|e| decode_err(path, e))?;
+    let mut reader =
+        image::ImageReader::new(std::io::Cursor::new(bytes)).with_guessed_format().map_err(|e| decode_err(path, e))?;
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(max_side);
+    limits.max_image_height = Some(max_side);
+    reader.limits(limits);
     reader.decode().map_err(|e| decode_err(path, e))
+}
+
+/// Decodes a grayscale DEM image (16- or 8-bit) as raw sample values.
+pub fn decode_dem_png(path: &Path, bytes: &[u8], max_side: u32) -> Result<Grid<f32>> {
+    let g = decode_image(path, bytes, max_side)?.to_luma16();
+    let (w, h) = (g.width() as usize, g.height() as usize);
+    Ok(Grid::from_vec(w, h, g.into_raw().into_iter().map(|v| v as f32).collect()))
 }
 
 /// Reads a grayscale DEM image (16- or 8-bit PNG) as raw sample values.
 /// The caller applies the vertical unit.
 pub fn read_dem_png(path: &Path, max_side: u32) -> Result<Grid<f32>> {
-    let img = open_image(path, max_side)?;
-    let g = img.to_luma16();
+    decode_dem_png(path, &read_bytes(path)?, max_side)
+}
+
+/// Decodes a sketch as 8-bit luminance.
+pub fn decode_sketch(path: &Path, bytes: &[u8], max_side: u32) -> Result<Grid<u8>> {
+    let g = decode_image(path, bytes, max_side)?.to_luma8();
     let (w, h) = (g.width() as usize, g.height() as usize);
-    Ok(Grid::from_vec(w, h, g.into_raw().into_iter().map(|v| v as f32).collect()))
+    Ok(Grid::from_vec(w, h, g.into_raw()))
 }
 
 /// Reads a sketch as 8-bit luminance.
 pub fn read_sketch(path: &Path, max_side: u32) -> Result<Grid<u8>> {
-    let img = open_image(path, max_side)?;
-    let g = img.to_luma8();
-    let (w, h) = (g.width() as usize, g.height() as usize);
-    Ok(Grid::from_vec(w, h, g.into_raw()))
+    decode_sketch(path, &read_bytes(path)?, max_side)
 }
 
 /// Writes `bytes` to `path` atomically (temporary file in the same folder, fsync, rename).
@@ -68,84 +87,6 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
         return Err(werr(e));
     }
     Ok(())
-}
-
-/// Encodes a heightfield as a single-channel 32-bit float TIFF.
-pub fn encode_tiff_f32(h: &Heightfield) -> Result<Vec<u8>> {
-    let mut buf = std::io::Cursor::new(Vec::new());
-    {
-        let mut enc = tiff::encoder::TiffEncoder::new(&mut buf).map_err(|e| TerrainError::Other(e.to_string()))?;
-        enc.write_image::<tiff::encoder::colortype::Gray32Float>(h.width as u32, h.height as u32, &h.data)
-            .map_err(|e| TerrainError::Other(e.to_string()))?;
-    }
-    Ok(buf.into_inner())
-}
-
-/// Decodes a single-channel 32-bit float TIFF (as written by [`encode_tiff_f32`]).
-pub fn read_tiff_f32(path: &Path) -> Result<Heightfield> {
-    let bytes = std::fs::read(path).map_err(|source| TerrainError::Read { path: path.to_path_buf(), source })?;
-    let mut dec = tiff::decoder::Decoder::new(std::io::Cursor::new(bytes)).map_err(|e| decode_err(path, e))?;
-    let (w, h) = dec.dimensions().map_err(|e| decode_err(path, e))?;
-    match dec.read_image().map_err(|e| decode_err(path, e))? {
-        tiff::decoder::DecodingResult::F32(v) => Ok(Grid::from_vec(w as usize, h as usize, v)),
-        _ => {
-            Err(TerrainError::Invalid { path: path.to_path_buf(), message: "expected a 32-bit float single-channel TIFF".into() })
-        }
-    }
-}
-
-/// Sidecar written beside 16-bit outputs so they convert back to metres exactly.
-#[derive(Debug, Clone, serde::Serialize, serde::Deserialize, PartialEq)]
-pub struct Png16Sidecar {
-    /// Elevation of sample value 0.
-    pub min_elevation: f64,
-    /// Elevation of sample value 65535.
-    pub max_elevation: f64,
-    pub unit: String,
-    pub width: usize,
-    pub height: usize,
-    /// metres = min_elevation + value * scale
-    pub scale: f64,
-}
-
-/// Quantises a heightfield to 16-bit samples spanning its own range.
-pub fn encode_png16(h: &Heightfield) -> Result<(Vec<u8>, Png16Sidecar)> {
-    let (lo, hi) = h.finite_range().unwrap_or((0.0, 0.0));
-    let span = (hi - lo) as f64;
-    let scale = if span > 0.0 { span / 65535.0 } else { 1.0 };
-    let samples: Vec<u16> = h.data.iter().map(|&v| (((v - lo) as f64 / scale).round()).clamp(0.0, 65535.0) as u16).collect();
-    let img = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_raw(h.width as u32, h.height as u32, samples)
-        .ok_or_else(|| TerrainError::Other("png buffer size mismatch".into()))?;
-    let mut buf = std::io::Cursor::new(Vec::new());
-    img.write_to(&mut buf, image::ImageFormat::Png).map_err(|e| TerrainError::Other(e.to_string()))?;
-    let side = Png16Sidecar {
-        min_elevation: lo as f64,
-        max_elevation: hi as f64,
-        unit: "m".into(),
-        width: h.width,
-        height: h.height,
-        scale,
-    };
-    Ok((buf.into_inner(), side))
-}
-
-/// Writes a heightfield by extension: `.tif`/`.tiff` (32-bit float metres) or
-/// `.png` (16-bit with a `.json` sidecar giving the elevation range and unit).
-pub fn write_heightfield(path: &Path, h: &Heightfield) -> Result<()> {
-    let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
-    match ext.as_str() {
-        "tif" | "tiff" => write_atomic(path, &encode_tiff_f32(h)?),
-        "png" => {
-            let (bytes, side) = encode_png16(h)?;
-            let json = serde_json::to_vec_pretty(&side).map_err(|e| TerrainError::Other(e.to_string()))?;
-            write_atomic(&path.with_extension("json"), &json)?;
-            write_atomic(path, &bytes)
-        }
-        _ => Err(TerrainError::Invalid {
-            path: path.to_path_buf(),
-            message: "unsupported output extension (use .tif or .png)".into(),
-        }),
-    }
 }
 
 /// Lambertian hillshade (sun from the north-west, 45° up), 8-bit. `cell` is the
@@ -189,35 +130,6 @@ pub fn write_rgb_png(path: &Path, img: &image::RgbImage) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn sample() -> Heightfield {
-        Grid::from_vec(5, 4, (0..20).map(|i| 100.0 + (i as f32 * 37.3).sin() * 250.0).collect())
-    }
-
-    #[test]
-    fn tiff_round_trip_is_exact() {
-        let dir = std::env::temp_dir().join(format!("rl-io-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let p = dir.join("t.tif");
-        let h = sample();
-        write_heightfield(&p, &h).unwrap();
-        assert_eq!(read_tiff_f32(&p).unwrap(), h);
-    }
-
-    #[test]
-    fn png16_round_trip_within_one_quantum() {
-        let dir = std::env::temp_dir().join(format!("rl-io16-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let p = dir.join("t.png");
-        let h = sample();
-        write_heightfield(&p, &h).unwrap();
-        let side: Png16Sidecar = serde_json::from_slice(&std::fs::read(p.with_extension("json")).unwrap()).unwrap();
-        let raw = read_dem_png(&p, DEFAULT_MAX_SIDE).unwrap();
-        for (a, b) in raw.data.iter().zip(&h.data) {
-            let back = side.min_elevation + *a as f64 * side.scale;
-            assert!((back - *b as f64).abs() <= side.scale * 0.5 + 1e-4);
-        }
-    }
 
     #[test]
     fn corrupt_png_is_a_named_error() {

@@ -3,11 +3,13 @@
 //! functions and the shard trait that separates the coordinator from its workers.
 
 pub mod costs;
+pub mod dem_formats;
 pub mod error;
 pub mod feature_extraction;
 pub mod grid;
 pub mod io;
 pub mod library;
+pub mod outputs;
 pub mod patch_geometry;
 pub mod shard;
 

@@ -11,10 +11,12 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ExemplarSpec {
     pub path: PathBuf,
-    /// Horizontal cell size in metres, if known.
+    /// Horizontal cell size in metres, if known (else the file's own, if it says).
     pub cell_size_m: Option<f32>,
     /// Factor from stored values to metres (0.3048 for feet).
     pub to_metres: f32,
+    /// Stored value that marks a void.
+    pub nodata: Option<f32>,
 }
 
 impl ExemplarSpec {
@@ -34,14 +36,68 @@ fn unit_factor(unit: &str, path: &Path) -> Result<f32> {
     }
 }
 
-/// Lists the exemplars of a folder: every `.png` file, sorted by name, with cell
-/// size and unit from `dems.csv` where it lists the file (otherwise metres, unknown cell).
+/// One entry of a manifest.
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ManifestEntry {
+    file: PathBuf,
+    cell_size_m: Option<f32>,
+    #[serde(alias = "vertical_unit")]
+    unit: Option<String>,
+    nodata: Option<f32>,
+}
+
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Manifest {
+    #[serde(alias = "exemplars")]
+    exemplar: Vec<ManifestEntry>,
+}
+
+/// Reads a manifest (`.toml` or `.json`): a list `exemplar` of entries with `file`
+/// (relative to the manifest), optional `cell_size_m`, `unit` (metres|feet) and
+/// `nodata`. Every listed file must exist.
+pub fn read_manifest(path: &Path) -> Result<Vec<ExemplarSpec>> {
+    let text = std::fs::read_to_string(path).map_err(|source| TerrainError::Read { path: path.to_path_buf(), source })?;
+    let bad = |m: String| TerrainError::Invalid { path: path.to_path_buf(), message: m };
+    let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
+    let m: Manifest = match ext.as_str() {
+        "toml" => toml::from_str(&text).map_err(|e| bad(format!("bad manifest: {e}")))?,
+        "json" => serde_json::from_str(&text).map_err(|e| bad(format!("bad manifest: {e}")))?,
+        _ => return Err(bad("a manifest must be .toml or .json".into())),
+    };
+    let base = path.parent().unwrap_or(Path::new("."));
+    let mut out = Vec::new();
+    for (i, e) in m.exemplar.into_iter().enumerate() {
+        let file = base.join(&e.file);
+        if !file.is_file() {
+            return Err(bad(format!("exemplar {} lists '{}', which does not exist", i + 1, file.display())));
+        }
+        if let Some(c) = e.cell_size_m {
+            if !(c.is_finite() && c > 0.0) {
+                return Err(bad(format!("exemplar {}: cell_size_m {c} must be positive", i + 1)));
+            }
+        }
+        let to_metres = match &e.unit {
+            Some(u) => unit_factor(u, path)?,
+            None => 1.0,
+        };
+        out.push(ExemplarSpec { path: file, cell_size_m: e.cell_size_m, to_metres, nodata: e.nodata });
+    }
+    Ok(out)
+}
+
+/// The exemplars of a library: a manifest file (`.toml`/`.json`), or a folder of
+/// DEMs (every `.png`, `.tif`, `.tiff`, `.hgt`, `.asc`, sorted by name) with cell size
+/// and unit from a `dems.csv` beside them where it lists the file (otherwise metres
+/// and the file's own cell size, if it has one).
 pub fn scan_library(dir: &Path) -> Result<Vec<ExemplarSpec>> {
+    if dir.is_file() {
+        return read_manifest(dir);
+    }
     let rd = std::fs::read_dir(dir).map_err(|source| TerrainError::Read { path: dir.to_path_buf(), source })?;
-    let mut files: Vec<PathBuf> = rd
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().map(|e| e.eq_ignore_ascii_case("png")).unwrap_or(false))
-        .collect();
+    let mut files: Vec<PathBuf> =
+        rd.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.is_file() && crate::dem_formats::is_dem_path(p)).collect();
     files.sort();
     let csv_path = dir.join("dems.csv");
     let mut meta: std::collections::BTreeMap<String, (Option<f32>, f32)> = Default::default();
@@ -77,7 +133,7 @@ pub fn scan_library(dir: &Path) -> Result<Vec<ExemplarSpec>> {
         .map(|p| {
             let name = p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
             let (cell_size_m, to_metres) = meta.get(&name).copied().unwrap_or((None, 1.0));
-            ExemplarSpec { path: p, cell_size_m, to_metres }
+            ExemplarSpec { path: p, cell_size_m, to_metres, nodata: None }
         })
         .collect())
 }
@@ -93,17 +149,50 @@ pub fn common_cell_size(specs: &[ExemplarSpec]) -> Option<f32> {
     counts.into_iter().max_by(|a, b| a.1.cmp(&b.1).then(b.0.cmp(&a.0))).map(|(c, _)| c as f32 / 1000.0)
 }
 
-/// Loads an exemplar in metres, resampled from its cell size to `out_cell`.
+/// Loads an exemplar in metres (voids as `NaN`), resampled from its cell size to
+/// `out_cell`. Returns the heights and the cell size they now have, if known.
 pub fn load_exemplar(spec: &ExemplarSpec, out_cell: Option<f32>, max_side: u32) -> Result<Heightfield> {
-    let raw = crate::io::read_dem_png(&spec.path, max_side)?;
-    let mut h = raw.map(|v| v * spec.to_metres);
-    if let (Some(src), Some(dst)) = (spec.cell_size_m, out_cell) {
+    let raw = crate::dem_formats::read_dem(&spec.path, spec.nodata, max_side)?;
+    let mut h = raw.heights.map(|v| v * spec.to_metres);
+    if let (Some(src), Some(dst)) = (spec.cell_size_m.or(raw.cell_size_m), out_cell) {
         let f = src / dst;
         if (f - 1.0).abs() > 1e-3 {
             let nw = ((h.width as f32 * f).round() as usize).max(1);
             let nh = ((h.height as f32 * f).round() as usize).max(1);
+            if nw > max_side as usize || nh > max_side as usize {
+                return Err(TerrainError::TooLarge {
+                    path: spec.path.clone(),
+                    width: nw as u32,
+                    height: nh as u32,
+                    limit: max_side,
+                });
+            }
             h = h.resample(nw, nh);
         }
     }
     Ok(h)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn manifest_lists_files_units_and_refuses_missing_ones() {
+        let d = std::env::temp_dir().join(format!("rl-manifest-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        std::fs::write(d.join("a.hgt"), [0u8; 8]).unwrap();
+        let m = d.join("lib.toml");
+        std::fs::write(&m, "[[exemplar]]\nfile = \"a.hgt\"\ncell_size_m = 30\nunit = \"feet\"\nnodata = -9999\n").unwrap();
+        let specs = scan_library(&m).unwrap();
+        assert_eq!(specs.len(), 1);
+        assert_eq!((specs[0].cell_size_m, specs[0].to_metres, specs[0].nodata), (Some(30.0), 0.3048, Some(-9999.0)));
+        let j = d.join("lib.json");
+        std::fs::write(&j, r#"{"exemplar": [{"file": "missing.tif"}]}"#).unwrap();
+        let e = scan_library(&j).unwrap_err().to_string();
+        assert!(e.contains("lib.json") && e.contains("missing.tif"), "{e}");
+        std::fs::write(&m, "[[exemplar]]\nfile = \"a.hgt\"\nunit = \"furlongs\"\n").unwrap();
+        assert!(scan_library(&m).unwrap_err().to_string().contains("furlongs"));
+    }
 }

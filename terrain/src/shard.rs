@@ -79,6 +79,13 @@ pub struct SourceInfo {
     pub cache_hit: bool,
 }
 
+/// An exemplar a shard could not use, and why.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SkippedExemplar {
+    pub name: String,
+    pub reason: String,
+}
+
 /// Errors a shard reports.
 #[derive(Debug, thiserror::Error)]
 pub enum ShardError {
@@ -92,6 +99,10 @@ pub enum ShardError {
 pub trait ShardScorer: Send + Sync {
     /// The sources this shard holds.
     fn sources(&self) -> Vec<SourceInfo>;
+    /// The exemplars of its share of the library it had to skip.
+    fn skipped(&self) -> Vec<SkippedExemplar> {
+        Vec::new()
+    }
     /// Round 1 for a block of user patches: for every user patch and every source of
     /// the shard, the `k` best candidates in the total order.
     fn score_block(&self, block: &[UserPatchQuery], k: usize) -> Result<Vec<BestSet>, ShardError>;

@@ -12,8 +12,8 @@
 
 use ridgeline_terrain::costs::noise_variances;
 use ridgeline_terrain::feature_extraction::FeatureGraph;
-use ridgeline_terrain::grid::Grid;
-use ridgeline_terrain::patch_geometry::{exits, extract_patch, patch_reach, Variant};
+use ridgeline_terrain::grid::{distance_transform, Grid};
+use ridgeline_terrain::patch_geometry::{exits, extract_patch, Variant};
 
 /// One feature candidate centre.
 #[derive(Debug, Clone, PartialEq)]
@@ -23,17 +23,29 @@ pub struct FeatureNode {
     pub exit_angles: Vec<f32>,
 }
 
-/// Picks feature candidate centres on `g`.
-pub fn feature_nodes(g: &FeatureGraph, patch: usize, spacing: usize) -> Vec<FeatureNode> {
-    let reach = patch_reach(patch);
-    let (w, h) = (g.width, g.height);
+/// Cells that can centre a patch in every variant: at least `reach` from the border
+/// and from any void (`NaN`) of the exemplar, so no candidate ever carries a void.
+pub fn valid_centres(heights: &Grid<f32>, reach: usize) -> Grid<bool> {
+    let (w, h) = (heights.width, heights.height);
+    let mut ok = Grid::new(w, h, false);
     if w <= 2 * reach || h <= 2 * reach {
-        return Vec::new();
+        return ok;
     }
-    let inside = |p: u32| {
-        let (x, y) = g.xy(p);
-        x >= reach && y >= reach && x < w - reach && y < h - reach
-    };
+    let voids = heights.map(|v| v.is_nan());
+    let dist = voids.data.iter().any(|&v| v).then(|| distance_transform(&voids));
+    for y in reach..h - reach {
+        for x in reach..w - reach {
+            let clear = dist.as_ref().map(|d| d.get(x, y) > reach as f32 * std::f32::consts::SQRT_2).unwrap_or(true);
+            ok.set(x, y, clear);
+        }
+    }
+    ok
+}
+
+/// Picks feature candidate centres on `g` among the `valid` cells.
+pub fn feature_nodes(g: &FeatureGraph, valid: &Grid<bool>, patch: usize, spacing: usize) -> Vec<FeatureNode> {
+    let (w, h) = (g.width, g.height);
+    let inside = |p: u32| valid.data[p as usize];
     let mut order: Vec<u32> = g.pixels().filter(|&p| inside(p) && g.degree(p) >= 3).collect();
     order.extend(g.pixels().filter(|&p| inside(p) && g.degree(p) < 3));
     let cell = spacing.max(1);
@@ -147,8 +159,10 @@ mod tests {
         for x in 0..199 {
             g.add_edge(at(x, 100), at(x + 1, 100));
         }
-        let nodes = feature_nodes(&g, 64, 8);
-        let reach = patch_reach(64) as u32;
+        let reach = ridgeline_terrain::patch_geometry::patch_reach(64);
+        let valid = valid_centres(&Grid::new(200, 200, 0.0), reach);
+        let nodes = feature_nodes(&g, &valid, 64, 8);
+        let reach = reach as u32;
         assert!(!nodes.is_empty());
         for n in &nodes {
             assert!(n.x >= reach && n.x < 200 - reach);
@@ -157,6 +171,15 @@ mod tests {
         for pair in nodes.windows(2) {
             assert!(pair[1].x - pair[0].x >= 8);
         }
+    }
+
+    #[test]
+    fn no_centre_near_a_void() {
+        let mut h = Grid::new(200, 200, 0.0f32);
+        h.set(100, 100, f32::NAN);
+        let valid = valid_centres(&h, 46);
+        assert!(!valid.get(100, 100) && !valid.get(140, 100) && !valid.get(60, 60));
+        assert!(valid.get(50, 150) || valid.get(150, 50) || valid.get(47, 47));
     }
 
     #[test]

@@ -2,7 +2,7 @@
 //! the output cell size, their ridge and valley graphs (from the feature cache when
 //! possible), feature candidate centres and the featureless pool.
 
-use crate::candidates::{feature_nodes, featureless_patches, FeatureNode, FeaturelessPatch};
+use crate::candidates::{feature_nodes, featureless_patches, valid_centres, FeatureNode, FeaturelessPatch};
 use crate::feature_cache::FeatureCache;
 use ridgeline_terrain::feature_extraction::{extract_features, FeatureGraph, FeatureKind, PpaParams};
 use ridgeline_terrain::grid::{box_blur, Heightfield};
@@ -39,6 +39,10 @@ pub struct Source {
 pub enum LoadError {
     #[error(transparent)]
     Terrain(#[from] TerrainError),
+    #[error("{path}: {width} x {height} cells at the output cell size is too small for a {patch}-cell patch in every orientation", path = .path.display())]
+    TooSmall { path: std::path::PathBuf, width: usize, height: usize, patch: usize },
+    #[error("{path}: no patch free of voids", path = .path.display())]
+    Unusable { path: std::path::PathBuf },
 }
 
 /// Robust relief of a heightfield: 98th minus 2nd percentile of a sample of cells.
@@ -68,18 +72,21 @@ pub fn exemplar_features(h: &Heightfield, p: &PpaParams) -> (FeatureGraph, Featu
     (r, v)
 }
 
-/// Loads one exemplar; `Ok(None)` when it is too small for a patch (skipped with a warning).
-pub fn load_source(id: u32, spec: &ExemplarSpec, cfg: &ShardConfig) -> Result<Option<Source>, LoadError> {
+/// Loads one exemplar. An exemplar that cannot be used — unreadable, corrupt,
+/// smaller than a patch in every orientation, or all voids — is an `Err` with the
+/// reason; the shard skips it with a warning and reports it (a library of thousands of
+/// DEMs should not fail overnight on one bad file; the job fails only if none is left).
+pub fn load_source(id: u32, spec: &ExemplarSpec, cfg: &ShardConfig) -> Result<Source, LoadError> {
     let _span = tracing::info_span!("load_exemplar", file = %spec.name()).entered();
     let heights = load_exemplar(spec, cfg.out_cell, cfg.max_side)?;
     let reach = patch_reach(cfg.patch);
     if heights.width <= 2 * reach || heights.height <= 2 * reach {
-        tracing::warn!(file = %spec.path.display(), width = heights.width, height = heights.height,
-            patch = cfg.patch, "exemplar smaller than a patch in every orientation; skipped");
-        return Ok(None);
-    }
-    if heights.data.iter().any(|v| !v.is_finite()) {
-        return Err(TerrainError::Invalid { path: spec.path.clone(), message: "contains non-finite heights".into() }.into());
+        return Err(LoadError::TooSmall {
+            path: spec.path.clone(),
+            width: heights.width,
+            height: heights.height,
+            patch: cfg.patch,
+        });
     }
     let rel = relief(&heights);
     let params = exemplar_ppa_params(rel);
@@ -106,7 +113,8 @@ pub fn load_source(id: u32, spec: &ExemplarSpec, cfg: &ShardConfig) -> Result<Op
         None => exemplar_features(&heights, &params),
     };
     let spacing = (cfg.patch * 5 / 32).max(2);
-    let nodes = [feature_nodes(&graphs.0, cfg.patch, spacing), feature_nodes(&graphs.1, cfg.patch, spacing)];
+    let valid = valid_centres(&heights, reach);
+    let nodes = [feature_nodes(&graphs.0, &valid, cfg.patch, spacing), feature_nodes(&graphs.1, &valid, cfg.patch, spacing)];
     let featureless = featureless_patches(&heights, &graphs.0, &graphs.1, cfg.patch);
     tracing::debug!(
         ridge_nodes = nodes[0].len(),
@@ -115,5 +123,8 @@ pub fn load_source(id: u32, spec: &ExemplarSpec, cfg: &ShardConfig) -> Result<Op
         cache_hit,
         "exemplar ready"
     );
-    Ok(Some(Source { id, name: spec.name(), heights, nodes, featureless, min_range: (0.02 * rel).max(1.0), cache_hit }))
+    if nodes[0].is_empty() && nodes[1].is_empty() && featureless.is_empty() {
+        return Err(LoadError::Unusable { path: spec.path.clone() });
+    }
+    Ok(Source { id, name: spec.name(), heights, nodes, featureless, min_range: (0.02 * rel).max(1.0), cache_hit })
 }

@@ -14,23 +14,45 @@ pub use feature_cache::FeatureCache;
 
 use rayon::prelude::*;
 use ridgeline_terrain::library::ExemplarSpec;
-use ridgeline_terrain::shard::{BestSet, FeaturelessCandidate, ShardError, ShardScorer, SourceInfo, UserPatchQuery};
+use ridgeline_terrain::shard::{
+    BestSet, FeaturelessCandidate, ShardError, ShardScorer, SkippedExemplar, SourceInfo, UserPatchQuery,
+};
 use std::sync::Arc;
 
 /// A shard served from this process, scored with the rayon CPU kernel.
 #[derive(Debug, Clone)]
 pub struct InProcessShard {
     sources: Arc<Vec<Source>>,
+    skipped: Vec<SkippedExemplar>,
     patch: usize,
 }
 
 impl InProcessShard {
     /// Loads the exemplars `(id, spec)` of this shard in parallel. Exemplars too small
     /// for a patch are skipped with a warning; any unreadable exemplar is an error.
-    pub fn load(items: &[(u32, ExemplarSpec)], cfg: &ShardConfig) -> Result<Self, exemplar_store::LoadError> {
-        let loaded: Result<Vec<Option<Source>>, _> = items.par_iter().map(|(id, spec)| load_source(*id, spec, cfg)).collect();
-        let sources: Vec<Source> = loaded?.into_iter().flatten().collect();
-        Ok(InProcessShard { sources: Arc::new(sources), patch: cfg.patch })
+    pub fn load(items: &[(u32, ExemplarSpec)], cfg: &ShardConfig) -> Self {
+        // rayon threads do not inherit the caller's span: re-enter it so every event
+        // keeps the job's context (job id)
+        let parent = tracing::Span::current();
+        let loaded: Vec<Result<Source, _>> = items
+            .par_iter()
+            .map(|(id, spec)| {
+                let _g = parent.enter();
+                load_source(*id, spec, cfg)
+            })
+            .collect();
+        let mut sources = Vec::new();
+        let mut skipped = Vec::new();
+        for (r, (_, spec)) in loaded.into_iter().zip(items) {
+            match r {
+                Ok(s) => sources.push(s),
+                Err(e) => {
+                    tracing::warn!(file = %spec.path.display(), reason = %e, "exemplar skipped");
+                    skipped.push(SkippedExemplar { name: spec.name(), reason: e.to_string() });
+                }
+            }
+        }
+        InProcessShard { sources: Arc::new(sources), skipped, patch: cfg.patch }
     }
 
     pub fn source_data(&self) -> &[Source] {
@@ -52,6 +74,10 @@ impl ShardScorer for InProcessShard {
                 cache_hit: s.cache_hit,
             })
             .collect()
+    }
+
+    fn skipped(&self) -> Vec<SkippedExemplar> {
+        self.skipped.clone()
     }
 
     fn score_block(&self, block: &[UserPatchQuery], k: usize) -> Result<Vec<BestSet>, ShardError> {

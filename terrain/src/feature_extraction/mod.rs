@@ -91,6 +91,9 @@ pub fn profile_recognition(h: &Grid<f32>, p: &PpaParams) -> Grid<bool> {
                             return false;
                         }
                         let v = h.get(xx as usize, yy as usize);
+                        if v.is_nan() {
+                            return false; // a void breaks the profile
+                        }
                         if v < thr {
                             return true;
                         }
@@ -168,7 +171,7 @@ pub fn target_connection(h: &Grid<f32>, cand: &Grid<bool>) -> Vec<Segment> {
 /// Runs the whole PPA for `kind` on `h` (heights of any unit; valleys use `-h`).
 pub fn extract_features(h: &Grid<f32>, kind: FeatureKind, p: &PpaParams) -> FeatureGraph {
     let s = kind.sign();
-    let field = h.map(|v| if v.is_finite() { v * s } else { f32::NEG_INFINITY });
+    let field = h.map(|v| if v.is_finite() { v * s } else { f32::NAN });
     let cand = profile_recognition(&field, p);
     let segs = target_connection(&field, &cand);
     let mut g = forest::maximum_spanning_forest(h.width, h.height, segs);

@@ -1,0 +1,167 @@
+//! `--debug-dir` outputs, for seeing what a job did:
+//! - `sketch_features.png`: the sketch with the detected ridge (red) and valley
+//!   (blue) centre lines and the user patch centres (green);
+//! - `features_only.png`: hillshade of the terrain after feature placement, before
+//!   hole filling (empty cells red);
+//! - `provenance.png`: every cell coloured by the exemplar it came from, patch
+//!   borders dark, featureless (hole-filling) patches lighter, with a legend strip;
+//! - `provenance.json`: every placed patch (exemplar, source position, variant,
+//!   output centre).
+
+use crate::pipeline::SynthOutput;
+use font8x8::UnicodeFonts;
+use image::{Rgb, RgbImage};
+use ridgeline_terrain::grid::Grid;
+use ridgeline_terrain::io::{hillshade, write_atomic, write_rgb_png};
+use ridgeline_terrain::FeatureKind;
+use std::path::Path;
+
+/// A distinct colour per index (golden-angle hues).
+pub fn palette(i: usize) -> [u8; 3] {
+    let h = (i as f32 * 137.508).rem_euclid(360.0) / 60.0;
+    let (s, v) = (0.65f32, 0.85f32);
+    let c = v * s;
+    let x = c * (1.0 - (h.rem_euclid(2.0) - 1.0).abs());
+    let (r, g, b) = match h as u32 {
+        0 => (c, x, 0.0),
+        1 => (x, c, 0.0),
+        2 => (0.0, c, x),
+        3 => (0.0, x, c),
+        4 => (x, 0.0, c),
+        _ => (c, 0.0, x),
+    };
+    let m = v - c;
+    [((r + m) * 255.0) as u8, ((g + m) * 255.0) as u8, ((b + m) * 255.0) as u8]
+}
+
+/// Draws `text` with the 8x8 bitmap font at (x, y).
+pub fn draw_text(img: &mut RgbImage, x: u32, y: u32, text: &str, color: [u8; 3]) {
+    for (k, ch) in text.chars().enumerate() {
+        let glyph = font8x8::BASIC_FONTS.get(ch).or_else(|| font8x8::BASIC_FONTS.get('?')).unwrap_or([0; 8]);
+        for (row, bits) in glyph.iter().enumerate() {
+            for col in 0..8u32 {
+                if bits & (1 << col) != 0 {
+                    let (px, py) = (x + k as u32 * 8 + col, y + row as u32);
+                    if px < img.width() && py < img.height() {
+                        img.put_pixel(px, py, Rgb(color));
+                    }
+                }
+            }
+        }
+    }
+}
+
+fn sketch_overlay(out: &SynthOutput, sketch: &Grid<u8>) -> RgbImage {
+    let (w, h) = (sketch.width as u32, sketch.height as u32);
+    let mut img = RgbImage::from_fn(w, h, |x, y| {
+        let v = sketch.get(x as usize, y as usize) / 2 + 64;
+        Rgb([v, v, v])
+    });
+    for kind in FeatureKind::BOTH {
+        let color = if kind == FeatureKind::Ridge { [230, 30, 30] } else { [30, 60, 230] };
+        let g = out.sketch.graph(kind);
+        for p in g.pixels() {
+            let (x, y) = g.xy(p);
+            img.put_pixel(x as u32, y as u32, Rgb(color));
+        }
+    }
+    for u in &out.user_patches {
+        for dy in 0..3u32 {
+            for dx in 0..3u32 {
+                let (x, y) = ((u.cx as u32 + dx).saturating_sub(1), (u.cy as u32 + dy).saturating_sub(1));
+                if x < w && y < h {
+                    img.put_pixel(x, y, Rgb([40, 220, 40]));
+                }
+            }
+        }
+    }
+    img
+}
+
+fn provenance_map(out: &SynthOutput) -> RgbImage {
+    let c = &out.canvas;
+    let (w, h) = (c.provenance.width, c.provenance.height);
+    let names: Vec<String> = out.report.exemplars.iter().map(|e| e.name.clone()).collect();
+    let colour_of = |source: u32| -> [u8; 3] {
+        let i = out.report.exemplars.iter().position(|e| e.source == source).unwrap_or(names.len());
+        palette(i)
+    };
+    let line_h = 10u32;
+    let legend_h = (names.len() as u32 + 2) * line_h + 4;
+    let mut img = RgbImage::from_pixel(w as u32, h as u32 + legend_h, Rgb([255, 255, 255]));
+    for y in 0..h {
+        for x in 0..w {
+            let id = c.provenance.get(x, y);
+            let mut col = if id == u32::MAX {
+                [0, 0, 0]
+            } else {
+                let pl = &c.placements[id as usize];
+                let base = colour_of(pl.source);
+                if pl.featureless {
+                    [base[0] / 2 + 128, base[1] / 2 + 128, base[2] / 2 + 128]
+                } else {
+                    base
+                }
+            };
+            let border = (x + 1 < w && c.provenance.get(x + 1, y) != id) || (y + 1 < h && c.provenance.get(x, y + 1) != id);
+            if border {
+                col = [col[0] / 3, col[1] / 3, col[2] / 3];
+            }
+            img.put_pixel(x as u32, y as u32, Rgb(col));
+        }
+    }
+    let y0 = h as u32 + 2;
+    draw_text(&mut img, 2, y0, "exemplar (light = hole filling)", [0, 0, 0]);
+    for (i, n) in names.iter().enumerate() {
+        let y = y0 + (i as u32 + 1) * line_h;
+        let col = palette(i);
+        for dy in 0..8 {
+            for dx in 0..8 {
+                if 2 + dx < img.width() && y + dy < img.height() {
+                    img.put_pixel(2 + dx, y + dy, Rgb(col));
+                }
+            }
+        }
+        draw_text(&mut img, 14, y, n, [0, 0, 0]);
+    }
+    img
+}
+
+#[derive(serde::Serialize)]
+struct PlacementRecord<'a> {
+    id: usize,
+    exemplar: &'a str,
+    src_x: u32,
+    src_y: u32,
+    variant: u8,
+    cx: usize,
+    cy: usize,
+    featureless: bool,
+}
+
+/// Writes the debug outputs of a finished job into `dir` (created if needed).
+pub fn write_debug_outputs(dir: &Path, out: &SynthOutput, sketch: &Grid<u8>, cell: f32) -> ridgeline_terrain::Result<()> {
+    std::fs::create_dir_all(dir).map_err(|source| ridgeline_terrain::TerrainError::Write { path: dir.to_path_buf(), source })?;
+    write_rgb_png(&dir.join("sketch_features.png"), &sketch_overlay(out, sketch))?;
+    write_rgb_png(&dir.join("features_only.png"), &hillshade(&out.features_only, cell))?;
+    write_rgb_png(&dir.join("provenance.png"), &provenance_map(out))?;
+    let recs: Vec<PlacementRecord> = out
+        .canvas
+        .placements
+        .iter()
+        .enumerate()
+        .map(|(id, p)| PlacementRecord {
+            id,
+            exemplar: out.report.exemplars.iter().find(|e| e.source == p.source).map(|e| e.name.as_str()).unwrap_or("?"),
+            src_x: p.src_x,
+            src_y: p.src_y,
+            variant: p.variant,
+            cx: p.cx,
+            cy: p.cy,
+            featureless: p.featureless,
+        })
+        .collect();
+    let p = dir.join("provenance.json");
+    let bytes = serde_json::to_vec_pretty(&recs).map_err(|e| ridgeline_terrain::TerrainError::Other(e.to_string()))?;
+    write_atomic(&p, &bytes)
+}

@@ -1,0 +1,226 @@
+//! The `ridgeline` binary on good and hostile input: clear errors naming the file,
+//! nothing written or clobbered on failure, JSON logs with a job id on every event,
+//! every output format, tiles that reassemble, debug outputs, fetch-dem offline.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn bin() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_ridgeline"));
+    c.env_remove("RUST_LOG");
+    c
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("rl-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn shared() -> Option<PathBuf> {
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data");
+    if p.join("dems").is_dir() {
+        Some(p)
+    } else {
+        eprintln!("SKIPPED: {} not found", p.display());
+        None
+    }
+}
+
+/// A small library of three real DEMs (symlinked, never copied into the repository).
+fn small_library(d: &Path, data: &Path) -> PathBuf {
+    let lib = d.join("lib");
+    std::fs::create_dir_all(&lib).unwrap();
+    for n in ["appalachians.png", "rockies.png", "highlands.png"] {
+        std::os::unix::fs::symlink(data.join("dems").join(n).canonicalize().unwrap(), lib.join(n)).unwrap();
+    }
+    std::fs::write(
+        lib.join("dems.csv"),
+        "file,cell_size_m,vertical_unit\nappalachians.png,90,feet\nrockies.png,90,feet\nhighlands.png,90,feet\n",
+    )
+    .unwrap();
+    lib
+}
+
+fn small_sketch(d: &Path) -> PathBuf {
+    let img = image::GrayImage::from_fn(192, 160, |x, y| {
+        let on_ridge = (y as i32 - 50 - x as i32 / 4).abs() <= 2 && (20..170).contains(&x);
+        let on_valley = (y as i32 - 120 + x as i32 / 5).abs() <= 2 && (20..170).contains(&x);
+        image::Luma([if on_ridge {
+            255
+        } else if on_valley {
+            0
+        } else {
+            128
+        }])
+    });
+    let p = d.join("sketch.png");
+    img.save(&p).unwrap();
+    p
+}
+
+fn stderr_of(c: &mut Command) -> (bool, String) {
+    let o = c.output().unwrap();
+    (o.status.success(), String::from_utf8_lossy(&o.stderr).into_owned())
+}
+
+#[test]
+fn missing_and_corrupt_inputs_are_named_and_nothing_is_clobbered() {
+    let d = tmp("bad");
+    let out = d.join("out.tif");
+    std::fs::write(&out, b"previous terrain").unwrap();
+    let (ok, err) =
+        stderr_of(bin().args(["synth", "--sketch"]).arg(d.join("nope.png")).args(["--exemplars", "."]).arg("--out").arg(&out));
+    assert!(!ok && err.contains("nope.png"), "{err}");
+    std::fs::write(d.join("corrupt.png"), b"\x89PNG\r\n\x1a\n\x00\x00garbage").unwrap();
+    let (ok, err) =
+        stderr_of(bin().args(["synth", "--sketch"]).arg(d.join("corrupt.png")).args(["--exemplars", "."]).arg("--out").arg(&out));
+    assert!(!ok && err.contains("corrupt.png"), "{err}");
+    let (ok, err) = stderr_of(bin().args(["synth", "--sketch", "s.png", "--exemplars", ".", "--out"]).arg(d.join("t.jpg")));
+    assert!(!ok && err.contains("t.jpg") && err.contains("unsupported"), "{err}");
+    assert_eq!(std::fs::read(&out).unwrap(), b"previous terrain", "a failed job leaves the old output alone");
+    let leftovers: Vec<_> = std::fs::read_dir(&d)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+        .collect();
+    assert!(leftovers.is_empty());
+}
+
+#[test]
+fn library_problems_are_reported() {
+    let Some(data) = shared() else { return };
+    let d = tmp("lib");
+    let sketch = small_sketch(&d);
+    // a manifest pointing at a missing file
+    std::fs::write(d.join("m.toml"), "[[exemplar]]\nfile = \"gone.tif\"\n").unwrap();
+    let (ok, err) = stderr_of(
+        bin().args(["synth", "--sketch"]).arg(&sketch).arg("--exemplars").arg(d.join("m.toml")).arg("--out").arg(d.join("o.tif")),
+    );
+    assert!(!ok && err.contains("m.toml") && err.contains("gone.tif"), "{err}");
+    // only exemplars too small for a patch: an error that says why
+    let tiny = d.join("tiny");
+    std::fs::create_dir_all(&tiny).unwrap();
+    image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_pixel(40, 40, image::Luma([1000]))
+        .save(tiny.join("tiny.png"))
+        .unwrap();
+    let (ok, err) =
+        stderr_of(bin().args(["synth", "--sketch"]).arg(&sketch).arg("--exemplars").arg(&tiny).arg("--out").arg(d.join("o.tif")));
+    assert!(!ok && err.contains("tiny.png") && err.contains("too small"), "{err}");
+    // a corrupt exemplar beside good ones is skipped with a note, the job succeeds
+    let lib = small_library(&d, &data);
+    std::fs::write(lib.join("broken.png"), b"not a png").unwrap();
+    let (ok, err) = stderr_of(
+        bin()
+            .args(["synth", "--patch-size", "32", "--sketch"])
+            .arg(&sketch)
+            .arg("--exemplars")
+            .arg(&lib)
+            .arg("--out")
+            .arg(d.join("o.tif"))
+            .arg("--cache-dir")
+            .arg(d.join("cache")),
+    );
+    assert!(ok, "{err}");
+    assert!(err.contains("broken.png"), "the skipped exemplar is named: {err}");
+}
+
+#[test]
+fn outputs_tiles_debug_report_and_json_logs() {
+    let Some(data) = shared() else { return };
+    let d = tmp("outs");
+    let lib = small_library(&d, &data);
+    let sketch = small_sketch(&d);
+    let out = d.join("terrain.png");
+    let o = bin()
+        .args(["--log-format", "json", "synth", "--patch-size", "32", "--tiles", "65", "--sketch"])
+        .arg(&sketch)
+        .arg("--exemplars")
+        .arg(&lib)
+        .arg("--out")
+        .arg(&out)
+        .arg("--debug-dir")
+        .arg(d.join("debug"))
+        .arg("--report")
+        .arg(d.join("report.json"))
+        .arg("--preview")
+        .arg(d.join("preview.png"))
+        .arg("--cache-dir")
+        .arg(d.join("cache"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    let mut events = 0;
+    for line in err.lines().filter(|l| l.starts_with('{')) {
+        let v: serde_json::Value = serde_json::from_str(line).unwrap_or_else(|e| panic!("not JSON ({e}): {line}"));
+        let has_id = v["spans"].as_array().map(|s| s.iter().any(|sp| sp["job_id"].is_string())).unwrap_or(false);
+        assert!(has_id, "event without job id: {line}");
+        events += 1;
+    }
+    assert!(events >= 5, "expected JSON events, got {events}");
+    let full = ridgeline_terrain::outputs::read_heightfield(&out, 4096).unwrap();
+    assert_eq!((full.width, full.height), (192, 160));
+    let tiles = ridgeline_terrain::outputs::read_tiles(&d.join("terrain_tiles.json"), 4096).unwrap();
+    assert_eq!(tiles, full, "tiles reassemble into the full terrain exactly");
+    for f in
+        ["debug/sketch_features.png", "debug/features_only.png", "debug/provenance.png", "debug/provenance.json", "preview.png"]
+    {
+        assert!(d.join(f).is_file(), "{f} missing");
+    }
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("report.json")).unwrap()).unwrap();
+    assert!(report["stages"].as_array().unwrap().len() >= 5);
+    assert_eq!(report["exemplars"].as_array().unwrap().len(), 3);
+    assert!(report["placements_per_exemplar"].as_object().unwrap().values().map(|v| v.as_u64().unwrap()).sum::<u64>() > 0);
+    // .r16 with its sidecar round-trips within one quantum of the png
+    let r16 = d.join("terrain.r16");
+    let o = bin()
+        .args(["synth", "--patch-size", "32", "--sketch"])
+        .arg(&sketch)
+        .arg("--exemplars")
+        .arg(&lib)
+        .arg("--out")
+        .arg(&r16)
+        .arg("--cache-dir")
+        .arg(d.join("cache"))
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    assert_eq!(ridgeline_terrain::outputs::read_heightfield(&r16, 4096).unwrap(), full, "same job, same quantisation");
+}
+
+#[test]
+fn fetch_dem_from_an_offline_mirror() {
+    let d = tmp("fetch");
+    let bbox = ridgeline::fetch_dem::BBox { west: 10.0, south: 46.0, east: 10.3, north: 46.2 };
+    let z = 9;
+    let (x0, y0) = ridgeline::fetch_dem::lonlat_to_pixel(bbox.west, bbox.north, z);
+    let (x1, y1) = ridgeline::fetch_dem::lonlat_to_pixel(bbox.east, bbox.south, z);
+    for ty in (y0 as usize / 256)..=((y1.ceil() as usize - 1) / 256) {
+        for tx in (x0 as usize / 256)..=((x1.ceil() as usize - 1) / 256) {
+            let t = ridgeline_terrain::Grid::from_vec(
+                256,
+                256,
+                (0..65536).map(|i| 1500.0 + ((tx * 256 + i % 256) as f32 * 0.05).sin() * 300.0 + (i / 256) as f32).collect(),
+            );
+            let p = d.join(format!("mirror/{z}/{tx}/{ty}.png"));
+            std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+            std::fs::write(&p, ridgeline::fetch_dem::encode_terrarium(&t)).unwrap();
+        }
+    }
+    let (ok, err) = stderr_of(
+        bin()
+            .args(["fetch-dem", "--bbox", "10.0,46.0,10.3,46.2", "--zoom", "9", "--source"])
+            .arg(d.join("mirror"))
+            .arg("--out")
+            .arg(d.join("lib"))
+            .arg("--cache-dir")
+            .arg(d.join("cache")),
+    );
+    assert!(ok, "{err}");
+    let specs = ridgeline_terrain::library::scan_library(&d.join("lib/manifest.toml")).unwrap();
+    assert_eq!(specs.len(), 1);
+    let (ok, err) = stderr_of(bin().args(["fetch-dem", "--area", "atlantis", "--out"]).arg(d.join("lib2")));
+    assert!(!ok && err.contains("atlantis"), "{err}");
+}

@@ -1,0 +1,310 @@
+//! Terrain outputs by extension, each written atomically:
+//! - `.tif`: single-channel 32-bit float metres, with the GeoTIFF pixel-scale tag;
+//! - `.png`: 16-bit, with a `.json` sidecar (`min_elevation`, `scale`, `unit`) that
+//!   converts samples back to metres;
+//! - `.r16`: raw little-endian 16-bit samples (as game engines import heightmaps),
+//!   with the same sidecar;
+//! - tiles: N x N-sample tiles sharing their border row and column with the next tile
+//!   (the layout Unreal and Unity landscape imports expect), named
+//!   `{stem}_x{col}_y{row}.{ext}`, with a `{stem}_tiles.json` index; 16-bit tiles all
+//!   use the whole terrain's range so they join without steps.
+
+use crate::dem_formats::parse_tiff;
+use crate::error::{Result, TerrainError};
+use crate::grid::{Grid, Heightfield};
+use crate::io::write_atomic;
+use std::path::{Path, PathBuf};
+
+/// Sidecar of 16-bit outputs: `metres = min_elevation + sample * scale`.
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize, PartialEq)]
+pub struct Png16Sidecar {
+    pub min_elevation: f64,
+    pub max_elevation: f64,
+    pub unit: String,
+    pub width: usize,
+    pub height: usize,
+    pub scale: f64,
+}
+
+impl Png16Sidecar {
+    /// The mapping for a heightfield's own range.
+    pub fn for_range(lo: f32, hi: f32, width: usize, height: usize) -> Self {
+        let span = (hi - lo) as f64;
+        let scale = if span > 0.0 { span / 65535.0 } else { 1.0 };
+        Png16Sidecar { min_elevation: lo as f64, max_elevation: hi as f64, unit: "m".into(), width, height, scale }
+    }
+    pub fn quantise(&self, v: f32) -> u16 {
+        (((v as f64 - self.min_elevation) / self.scale).round()).clamp(0.0, 65535.0) as u16
+    }
+    pub fn metres(&self, s: u16) -> f32 {
+        (self.min_elevation + s as f64 * self.scale) as f32
+    }
+}
+
+fn other(path: &Path, e: impl std::fmt::Display) -> TerrainError {
+    TerrainError::Other(format!("{}: {e}", path.display()))
+}
+
+/// Encodes a heightfield as a single-channel 32-bit float TIFF; `cell` (metres)
+/// goes into the GeoTIFF pixel-scale tag.
+pub fn encode_tiff_f32_with_cell(h: &Heightfield, cell: Option<f32>) -> Result<Vec<u8>> {
+    let mut buf = std::io::Cursor::new(Vec::new());
+    {
+        let mut enc = tiff::encoder::TiffEncoder::new(&mut buf).map_err(|e| TerrainError::Other(e.to_string()))?;
+        let mut img = enc
+            .new_image::<tiff::encoder::colortype::Gray32Float>(h.width as u32, h.height as u32)
+            .map_err(|e| TerrainError::Other(e.to_string()))?;
+        if let Some(c) = cell {
+            let scale = [c as f64, c as f64, 0.0];
+            img.encoder()
+                .write_tag(tiff::tags::Tag::ModelPixelScaleTag, &scale[..])
+                .map_err(|e| TerrainError::Other(e.to_string()))?;
+        }
+        img.write_data(&h.data).map_err(|e| TerrainError::Other(e.to_string()))?;
+    }
+    Ok(buf.into_inner())
+}
+
+/// Encodes a heightfield as a single-channel 32-bit float TIFF.
+pub fn encode_tiff_f32(h: &Heightfield) -> Result<Vec<u8>> {
+    encode_tiff_f32_with_cell(h, None)
+}
+
+fn encode_png16(path: &Path, h: &Heightfield, side: &Png16Sidecar) -> Result<Vec<u8>> {
+    let samples: Vec<u16> = h.data.iter().map(|&v| side.quantise(v)).collect();
+    let img = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_raw(h.width as u32, h.height as u32, samples)
+        .ok_or_else(|| other(path, "png buffer size mismatch"))?;
+    let mut buf = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut buf, image::ImageFormat::Png).map_err(|e| other(path, e))?;
+    Ok(buf.into_inner())
+}
+
+fn ext_of(path: &Path) -> String {
+    path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default()
+}
+
+/// Output extensions [`write_heightfield`] accepts.
+pub const OUTPUT_EXTENSIONS: [&str; 4] = ["tif", "tiff", "png", "r16"];
+
+fn write_with_sidecar(path: &Path, h: &Heightfield, side: &Png16Sidecar, cell: Option<f32>) -> Result<()> {
+    let ext = ext_of(path);
+    match ext.as_str() {
+        "tif" | "tiff" => write_atomic(path, &encode_tiff_f32_with_cell(h, cell)?),
+        "png" | "r16" => {
+            let bytes = if ext == "png" {
+                encode_png16(path, h, side)?
+            } else {
+                h.data.iter().flat_map(|&v| side.quantise(v).to_le_bytes()).collect()
+            };
+            let json = serde_json::to_vec_pretty(side).map_err(|e| other(path, e))?;
+            write_atomic(&path.with_extension("json"), &json)?;
+            write_atomic(path, &bytes)
+        }
+        _ => Err(TerrainError::Invalid {
+            path: path.to_path_buf(),
+            message: format!("unsupported output extension (use {})", OUTPUT_EXTENSIONS.join(", ")),
+        }),
+    }
+}
+
+/// Writes a heightfield by extension (see the module header).
+pub fn write_heightfield(path: &Path, h: &Heightfield) -> Result<()> {
+    write_heightfield_with_cell(path, h, None)
+}
+
+/// [`write_heightfield`], recording the cell size where the format can.
+pub fn write_heightfield_with_cell(path: &Path, h: &Heightfield, cell: Option<f32>) -> Result<()> {
+    let (lo, hi) = h.finite_range().unwrap_or((0.0, 0.0));
+    write_with_sidecar(path, h, &Png16Sidecar::for_range(lo, hi, h.width, h.height), cell)
+}
+
+fn read_sidecar(path: &Path) -> Result<Png16Sidecar> {
+    let sp = path.with_extension("json");
+    let bytes = std::fs::read(&sp).map_err(|source| TerrainError::Read { path: sp.clone(), source })?;
+    serde_json::from_slice(&bytes).map_err(|e| TerrainError::Invalid { path: sp, message: format!("bad sidecar: {e}") })
+}
+
+/// Reads back an output written by [`write_heightfield`] (metres).
+pub fn read_heightfield(path: &Path, max_side: u32) -> Result<Heightfield> {
+    match ext_of(path).as_str() {
+        "tif" | "tiff" => {
+            let bytes = std::fs::read(path).map_err(|source| TerrainError::Read { path: path.to_path_buf(), source })?;
+            Ok(parse_tiff(path, &bytes, max_side)?.heights)
+        }
+        "png" => {
+            let side = read_sidecar(path)?;
+            let raw = crate::io::read_dem_png(path, max_side)?;
+            Ok(raw.map(|v| side.metres(v as u16)))
+        }
+        "r16" => {
+            let side = read_sidecar(path)?;
+            let bytes = std::fs::read(path).map_err(|source| TerrainError::Read { path: path.to_path_buf(), source })?;
+            if bytes.len() != side.width * side.height * 2 {
+                return Err(TerrainError::Invalid {
+                    path: path.to_path_buf(),
+                    message: format!("{} bytes, sidecar says {} x {}", bytes.len(), side.width, side.height),
+                });
+            }
+            let data = bytes.chunks_exact(2).map(|c| side.metres(u16::from_le_bytes([c[0], c[1]]))).collect();
+            Ok(Grid::from_vec(side.width, side.height, data))
+        }
+        _ => Err(TerrainError::Invalid { path: path.to_path_buf(), message: "unsupported extension".into() }),
+    }
+}
+
+/// One tile in the tile index.
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize, PartialEq)]
+pub struct TileEntry {
+    pub file: String,
+    pub col: usize,
+    pub row: usize,
+    /// Terrain cell of the tile's first sample.
+    pub x0: usize,
+    pub y0: usize,
+    /// Samples of the tile that lie inside the terrain (the rest repeat its edge).
+    pub valid_width: usize,
+    pub valid_height: usize,
+}
+
+/// The `{stem}_tiles.json` index.
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize, PartialEq)]
+pub struct TileIndex {
+    pub tile_size: usize,
+    /// Distance between tile origins: `tile_size - 1` (shared border).
+    pub stride: usize,
+    pub columns: usize,
+    pub rows: usize,
+    pub width: usize,
+    pub height: usize,
+    /// For 16-bit tiles: the shared mapping to metres.
+    pub elevation: Option<Png16Sidecar>,
+    pub tiles: Vec<TileEntry>,
+}
+
+/// Writes `h` as `n x n` tiles beside `out` in `out`'s format; returns the index path.
+pub fn write_tiles(out: &Path, h: &Heightfield, n: usize, cell: Option<f32>) -> Result<PathBuf> {
+    if n < 2 {
+        return Err(TerrainError::Invalid { path: out.to_path_buf(), message: format!("tile size {n} must be at least 2") });
+    }
+    let ext = ext_of(out);
+    let stem = out.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "terrain".into());
+    let dir = out.parent().filter(|p| !p.as_os_str().is_empty()).map(Path::to_path_buf).unwrap_or_else(|| PathBuf::from("."));
+    let stride = n - 1;
+    let cols = (h.width.saturating_sub(1)).div_ceil(stride).max(1);
+    let rows = (h.height.saturating_sub(1)).div_ceil(stride).max(1);
+    let (lo, hi) = h.finite_range().unwrap_or((0.0, 0.0));
+    let side = Png16Sidecar::for_range(lo, hi, n, n);
+    let mut index = TileIndex {
+        tile_size: n,
+        stride,
+        columns: cols,
+        rows,
+        width: h.width,
+        height: h.height,
+        elevation: (ext != "tif" && ext != "tiff").then(|| side.clone()),
+        tiles: Vec::new(),
+    };
+    for row in 0..rows {
+        for col in 0..cols {
+            let (x0, y0) = (col * stride, row * stride);
+            let mut t = Grid::new(n, n, 0f32);
+            for j in 0..n {
+                for i in 0..n {
+                    t.set(i, j, h.get((x0 + i).min(h.width - 1), (y0 + j).min(h.height - 1)));
+                }
+            }
+            let file = format!("{stem}_x{col}_y{row}.{ext}");
+            write_with_sidecar(&dir.join(&file), &t, &side, cell)?;
+            index.tiles.push(TileEntry {
+                file,
+                col,
+                row,
+                x0,
+                y0,
+                valid_width: n.min(h.width - x0),
+                valid_height: n.min(h.height - y0),
+            });
+        }
+    }
+    let ip = dir.join(format!("{stem}_tiles.json"));
+    write_atomic(&ip, &serde_json::to_vec_pretty(&index).map_err(|e| other(&ip, e))?)?;
+    Ok(ip)
+}
+
+/// Reassembles a terrain from a tile index written by [`write_tiles`].
+pub fn read_tiles(index_path: &Path, max_side: u32) -> Result<Heightfield> {
+    let bytes = std::fs::read(index_path).map_err(|source| TerrainError::Read { path: index_path.to_path_buf(), source })?;
+    let idx: TileIndex = serde_json::from_slice(&bytes)
+        .map_err(|e| TerrainError::Invalid { path: index_path.to_path_buf(), message: format!("bad tile index: {e}") })?;
+    crate::dem_formats::check_size(index_path, idx.width as u64, idx.height as u64, max_side)?;
+    let dir = index_path.parent().unwrap_or(Path::new("."));
+    let mut out = Grid::new(idx.width, idx.height, f32::NAN);
+    for t in &idx.tiles {
+        let tile = read_heightfield(&dir.join(&t.file), max_side)?;
+        for j in 0..t.valid_height.min(tile.height) {
+            for i in 0..t.valid_width.min(tile.width) {
+                if t.x0 + i < idx.width && t.y0 + j < idx.height {
+                    out.set(t.x0 + i, t.y0 + j, tile.get(i, j));
+                }
+            }
+        }
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample(w: usize, h: usize) -> Heightfield {
+        Grid::from_vec(w, h, (0..w * h).map(|i| 100.0 + (i as f32 * 37.3).sin() * 250.0).collect())
+    }
+
+    fn tmp(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("rl-out-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    #[test]
+    fn every_output_format_round_trips() {
+        let d = tmp("rt");
+        let h = sample(37, 23);
+        write_heightfield_with_cell(&d.join("t.tif"), &h, Some(90.0)).unwrap();
+        assert_eq!(read_heightfield(&d.join("t.tif"), 1000).unwrap(), h, "tif is exact");
+        let bytes = std::fs::read(d.join("t.tif")).unwrap();
+        assert_eq!(parse_tiff(Path::new("t.tif"), &bytes, 1000).unwrap().cell_size_m, Some(90.0));
+        for ext in ["png", "r16"] {
+            let p = d.join(format!("t.{ext}"));
+            write_heightfield(&p, &h).unwrap();
+            let back = read_heightfield(&p, 1000).unwrap();
+            let side = read_sidecar(&p).unwrap();
+            for (a, b) in back.data.iter().zip(&h.data) {
+                assert!((a - b).abs() as f64 <= side.scale * 0.5 + 1e-3, "{ext}: {a} vs {b}");
+            }
+        }
+        assert!(write_heightfield(&d.join("t.jpg"), &h).is_err());
+    }
+
+    #[test]
+    fn tiles_reassemble_exactly() {
+        let d = tmp("tiles");
+        let h = sample(70, 45);
+        for ext in ["tif", "png", "r16"] {
+            let out = d.join(format!("terrain.{ext}"));
+            let idx = write_tiles(&out, &h, 16, Some(30.0)).unwrap();
+            let back = read_tiles(&idx, 1000).unwrap();
+            if ext == "tif" {
+                assert_eq!(back, h, "float tiles reassemble to the exact terrain");
+            } else {
+                // 16-bit tiles share one mapping: they equal the quantised whole terrain
+                let (lo, hi) = h.finite_range().unwrap();
+                let side = Png16Sidecar::for_range(lo, hi, 16, 16);
+                let want = h.map(|v| side.metres(side.quantise(v)));
+                assert_eq!(back, want, "{ext} tiles");
+            }
+            assert!(d.join(format!("terrain_x4_y2.{ext}")).exists(), "engine-style tile names");
+        }
+    }
+}
