@@ -174,7 +174,7 @@ impl TileSource for HttpSource {
                     return Ok(buf);
                 }
                 Err(ureq::Error::Status(code, _)) if code < 500 && code != 429 => return Err(format!("{url}: HTTP {code}")),
-                Err(e) => last = format!("{url}: {e}"),
+                Err(e) => last = e.to_string(),
             }
         }
         Err(last)
