@@ -1,6 +1,7 @@
 //! ridgeline coordinator: a job from the sketch to the output file. Start at
 //! [`pipeline`]; each stage is a module named after it.
 
+pub mod cluster;
 pub mod debug_outputs;
 pub mod fetch_dem;
 pub mod graph_cut;

@@ -33,6 +33,33 @@ enum Cmd {
     Synth(SynthArgs),
     /// Download public elevation tiles (Terrarium) for an area and write them as an exemplar library.
     FetchDem(FetchArgs),
+    /// Serve round-1 scoring to coordinators over gRPC.
+    Worker(WorkerArgs),
+}
+
+#[derive(clap::Args)]
+struct WorkerArgs {
+    /// Address to listen on (port 0 picks a free port; the bound address is printed).
+    #[arg(long)]
+    listen: std::net::SocketAddr,
+    /// Cluster token callers must present (or RIDGELINE_TOKEN). Required unless the
+    /// worker listens on a loopback address.
+    #[arg(long, env = "RIDGELINE_TOKEN", hide_env_values = true)]
+    token: Option<String>,
+    /// Folder for uploaded exemplars (by content hash) and their feature cache.
+    #[arg(long)]
+    data_dir: Option<PathBuf>,
+    /// Scoring threads (0 = all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// TLS certificate and key (PEM); without them the worker speaks plain HTTP/2.
+    #[arg(long, requires = "tls_key")]
+    tls_cert: Option<PathBuf>,
+    #[arg(long, requires = "tls_cert")]
+    tls_key: Option<PathBuf>,
+    /// Largest exemplar upload accepted, in MiB.
+    #[arg(long, default_value_t = 2048)]
+    max_exemplar_mb: u64,
 }
 
 #[derive(clap::Args)]
@@ -83,6 +110,25 @@ struct SynthArgs {
     /// Refuse images with a side longer than this, before allocating them.
     #[arg(long, default_value_t = ridgeline_terrain::io::DEFAULT_MAX_SIDE)]
     max_side: u32,
+    /// Score on these gRPC workers (comma-separated URLs, e.g. http://10.0.0.5:7070)
+    /// instead of in-process.
+    #[arg(long, value_delimiter = ',', conflicts_with = "workers_file")]
+    workers: Vec<String>,
+    /// A file with one worker URL per line (# comments allowed).
+    #[arg(long)]
+    workers_file: Option<PathBuf>,
+    /// Cluster token (or RIDGELINE_TOKEN).
+    #[arg(long, env = "RIDGELINE_TOKEN", hide_env_values = true)]
+    token: Option<String>,
+    /// CA certificate (PEM) to verify https:// workers.
+    #[arg(long)]
+    tls_ca: Option<PathBuf>,
+    /// Deadline of one worker call, in seconds; a worker that misses it is treated as dead.
+    #[arg(long, default_value_t = 120)]
+    call_timeout_s: u64,
+    /// User patches per round-1 block.
+    #[arg(long, default_value_t = 16)]
+    block_size: usize,
 }
 
 #[derive(clap::Args)]
@@ -190,7 +236,56 @@ fn run(cmd: Cmd, interactive: bool, human: bool) -> Result<()> {
     match cmd {
         Cmd::Synth(a) => synth(a, interactive, human),
         Cmd::FetchDem(a) => fetch(a),
+        Cmd::Worker(a) => worker(a),
     }
+}
+
+fn worker(a: WorkerArgs) -> Result<()> {
+    if a.token.is_none() && !a.listen.ip().is_loopback() {
+        bail!("refusing to serve on {} without a cluster token: pass --token or set RIDGELINE_TOKEN (only loopback addresses may run without one)", a.listen);
+    }
+    let data_dir = a.data_dir.unwrap_or_else(|| ridgeline_worker::FeatureCache::default_dir().join("worker"));
+    let cfg = ridgeline_worker::grpc_service::WorkerConfig {
+        data_dir: data_dir.clone(),
+        token: a.token,
+        max_exemplar_bytes: a.max_exemplar_mb << 20,
+        max_shards: 8,
+        threads: a.threads,
+    };
+    let tls = match (a.tls_cert, a.tls_key) {
+        (Some(cert), Some(key)) => Some(ridgeline_worker::grpc_service::TlsFiles { cert, key }),
+        _ => None,
+    };
+    let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
+    rt.block_on(async move {
+        let listener = tokio::net::TcpListener::bind(a.listen).await.with_context(|| format!("cannot listen on {}", a.listen))?;
+        let addr = listener.local_addr()?;
+        println!("listening on {addr}");
+        use std::io::Write;
+        std::io::stdout().flush()?;
+        tracing::info!(%addr, data_dir = %data_dir.display(), "worker serving");
+        let shutdown = async {
+            let _ = tokio::signal::ctrl_c().await;
+        };
+        ridgeline_worker::grpc_service::serve(listener, cfg, tls, shutdown).await.map_err(|e| anyhow::anyhow!("{e}"))
+    })
+}
+
+fn worker_urls(a: &SynthArgs) -> Result<Vec<String>> {
+    let mut urls = a.workers.clone();
+    if let Some(f) = &a.workers_file {
+        let text = std::fs::read_to_string(f).with_context(|| format!("{}: cannot read workers file", f.display()))?;
+        urls.extend(text.lines().map(|l| l.split('#').next().unwrap_or("").trim().to_string()).filter(|l| !l.is_empty()));
+        if urls.is_empty() {
+            bail!("{}: no worker URL in the file", f.display());
+        }
+    }
+    for u in &urls {
+        if !(u.starts_with("http://") || u.starts_with("https://")) {
+            bail!("worker '{u}': use an http:// or https:// URL");
+        }
+    }
+    Ok(urls)
 }
 
 fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
@@ -207,7 +302,22 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
             bail!("--tiles {n}: a tile needs at least 2 x 2 samples");
         }
     }
+    let urls = worker_urls(&a)?;
+    let cluster = if urls.is_empty() {
+        None
+    } else {
+        let ccfg = ridgeline::cluster::ClusterConfig {
+            workers: urls,
+            token: a.token.clone(),
+            tls_ca: a.tls_ca.clone(),
+            call_timeout: std::time::Duration::from_secs(a.call_timeout_s.max(1)),
+            ..Default::default()
+        };
+        Some(ridgeline::cluster::Cluster::connect(ccfg)?)
+    };
     let cfg = SynthConfig {
+        cluster,
+        block: a.block_size.max(1),
         patch: a.patch_size,
         seed: a.seed,
         threads: a.threads,

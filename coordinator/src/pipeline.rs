@@ -54,6 +54,8 @@ pub struct SynthConfig {
     pub shards: usize,
     /// Called as work advances: (stage, done, total).
     pub progress: Progress,
+    /// gRPC workers to score on; `None` = in-process shards.
+    pub cluster: Option<Arc<crate::cluster::Cluster>>,
 }
 
 /// A progress callback: `(stage, done, total)`.
@@ -90,6 +92,7 @@ impl Default for SynthConfig {
             threads: 0,
             shards: 1,
             progress: Progress::default(),
+            cluster: None,
         }
     }
 }
@@ -183,9 +186,17 @@ pub fn load_library(dir: &Path, cfg: &SynthConfig) -> Result<(Shards, Option<f32
         max_side: cfg.max_side,
         cache: cfg.cache_dir.clone().map(FeatureCache::new),
     };
-    let n = cfg.shards.clamp(1, specs.len());
-    let mut shards: Shards = Vec::new();
     let items: Vec<(u32, ExemplarSpec)> = specs.into_iter().enumerate().map(|(i, s)| (i as u32, s)).collect();
+    if let Some(cluster) = &cfg.cluster {
+        let shards = crate::cluster::remote_shards(cluster, &items, cfg.patch, cell)?;
+        if shards.iter().all(|s| s.sources().is_empty()) {
+            let why: Vec<String> = shards.iter().flat_map(|s| s.skipped()).map(|s| format!("\n  skipped {}", s.reason)).collect();
+            return Err(SynthError::NoExemplars(dir.to_path_buf(), why.concat()));
+        }
+        return Ok((shards, cell));
+    }
+    let n = cfg.shards.clamp(1, items.len());
+    let mut shards: Shards = Vec::new();
     for s in 0..n {
         let part: Vec<(u32, ExemplarSpec)> = items.iter().filter(|(i, _)| *i as usize % n == s).cloned().collect();
         shards.push(Arc::new(InProcessShard::load(&part, &shard_cfg)));
@@ -277,6 +288,7 @@ fn synthesize_in(
     let p = cfg.patch;
     let mut report = SynthReport { width: sketch.width, height: sketch.height, patch: p, seed: cfg.seed, ..Default::default() };
     report.exemplars = shards.iter().flat_map(|s| s.sources()).collect();
+    report.exemplars.sort_by_key(|e| e.source);
     report.skipped_exemplars = shards.iter().flat_map(|s| s.skipped()).collect();
     report.cache_hits = report.exemplars.iter().filter(|e| e.cache_hit).count();
 
@@ -316,10 +328,28 @@ fn synthesize_in(
                 let _b = tracing::info_span!("block", index = bi, user_patches = block.len()).entered();
                 let t = Instant::now();
                 let queries: Vec<_> = block.iter().map(|u| u.query.clone()).collect();
+                // every shard scores the block at once (remote shards wait on the network)
+                let answers: Vec<Result<Vec<BestSet>, ShardError>> = std::thread::scope(|s| {
+                    let handles: Vec<_> = shards
+                        .iter()
+                        .enumerate()
+                        .map(|(si, shard)| {
+                            let (queries, span) = (&queries, tracing::Span::current());
+                            s.spawn(move || {
+                                let _g = span.enter();
+                                let _w = tracing::debug_span!("worker_call", shard = si).entered();
+                                pool.install(|| shard.score_block(queries, cfg.k))
+                            })
+                        })
+                        .collect();
+                    handles
+                        .into_iter()
+                        .map(|h| h.join().unwrap_or_else(|_| Err(ShardError::Unavailable("scoring thread panicked".into()))))
+                        .collect()
+                });
                 let mut sets = Vec::new();
-                for (si, shard) in shards.iter().enumerate() {
-                    let _w = tracing::debug_span!("worker_call", shard = si).entered();
-                    match pool.install(|| shard.score_block(&queries, cfg.k)) {
+                for a in answers {
+                    match a {
                         Ok(s) => sets.extend(s),
                         Err(e) => {
                             let _ = tx.send(Err(e));
@@ -381,6 +411,8 @@ fn synthesize_in(
         for s in shards {
             v.extend(s.featureless_pool()?);
         }
+        // a fixed order whatever the sharding, so ties break the same way
+        v.sort_by_key(|c| (c.source, c.y, c.x));
         v
     };
     let fill = {

@@ -7,6 +7,7 @@
 pub mod candidates;
 pub mod exemplar_store;
 pub mod feature_cache;
+pub mod grpc_service;
 pub mod patch_matching;
 
 pub use exemplar_store::{load_source, ShardConfig, Source};
@@ -53,6 +54,21 @@ impl InProcessShard {
             }
         }
         InProcessShard { sources: Arc::new(sources), skipped, patch: cfg.patch }
+    }
+
+    /// Replaces file names of the form `{content hash}.{ext}` (how a worker stores
+    /// uploads) by the names the coordinator gave, for reports.
+    pub fn with_names(mut self, names: &std::collections::BTreeMap<String, String>) -> Self {
+        let rename = |n: &mut String| {
+            if let Some(new) = n.split('.').next().and_then(|stem| names.get(stem)) {
+                *n = new.clone();
+            }
+        };
+        if let Some(v) = Arc::get_mut(&mut self.sources) {
+            v.iter_mut().for_each(|s| rename(&mut s.name));
+        }
+        self.skipped.iter_mut().for_each(|s| rename(&mut s.name));
+        self
     }
 
     pub fn source_data(&self) -> &[Source] {

@@ -1,0 +1,15 @@
+//! ridgeline's versioned gRPC worker service (`proto/ridgeline/v1/worker.proto`),
+//! generated at build time by tonic-prost-build.
+
+/// Version 1 of the protocol.
+pub mod v1 {
+    tonic::include_proto!("ridgeline.v1");
+}
+
+/// The protocol version a worker reports in `Capabilities`.
+pub const PROTOCOL_VERSION: u32 = 1;
+
+pub mod convert;
+
+/// Largest message either side accepts (a block of best-sets carries candidate pixels).
+pub const MAX_MESSAGE_BYTES: usize = 256 << 20;

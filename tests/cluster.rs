@@ -1,0 +1,170 @@
+//! The cluster with real worker processes on 127.0.0.1: identical bytes in-process and
+//! on 1 and 3 workers, a worker killed (SIGKILL) mid-job, all workers lost, a wrong
+//! token, and malformed requests.
+
+use ridgeline::cluster::{Cluster, ClusterConfig};
+use ridgeline::pipeline::{run_job, SynthConfig};
+use ridgeline_proto::v1;
+use ridgeline_terrain::io::encode_tiff_f32;
+use ridgeline_tests::{shared_data, temp_dir, WorkerProc};
+use std::sync::Arc;
+
+const TOKEN: &str = "cluster-secret";
+
+fn cluster(workers: &[&WorkerProc], token: &str) -> Arc<Cluster> {
+    let cfg = ClusterConfig {
+        workers: workers.iter().map(|w| w.url.clone()).collect(),
+        token: Some(token.into()),
+        ..Default::default()
+    };
+    Cluster::connect(cfg).expect("connect")
+}
+
+fn job(data: &std::path::Path, cache: &std::path::Path, cluster: Option<Arc<Cluster>>) -> Result<Vec<u8>, String> {
+    // small blocks: many round trips, so a kill lands mid-job
+    let cfg = SynthConfig { cluster, block: 2, cache_dir: Some(cache.to_path_buf()), ..Default::default() };
+    run_job(&data.join("sketches/small-range-512.png"), &data.join("dems"), &cfg)
+        .map(|o| encode_tiff_f32(&o.terrain).unwrap())
+        .map_err(|e| e.to_string())
+}
+
+#[test]
+fn same_bytes_in_process_on_one_and_three_workers_and_after_a_kill() {
+    let Some(data) = shared_data() else { return };
+    let d = temp_dir("cluster");
+    let local = job(&data, &d.join("cache"), None).unwrap();
+
+    let one = WorkerProc::start(&d.join("w0"), Some(TOKEN));
+    let c1 = cluster(&[&one], TOKEN);
+    assert!(job(&data, &d.join("cache"), Some(c1.clone())).unwrap() == local, "1 worker differs from in-process");
+    let uploaded = c1.stats.exemplar_bytes.load(std::sync::atomic::Ordering::Relaxed);
+    assert!(uploaded > 0);
+    // a second job on the same library sends no exemplar bytes
+    let c1b = cluster(&[&one], TOKEN);
+    assert!(job(&data, &d.join("cache"), Some(c1b.clone())).unwrap() == local);
+    assert_eq!(c1b.stats.exemplar_bytes.load(std::sync::atomic::Ordering::Relaxed), 0, "library resent");
+    drop(one);
+
+    let mut ws: Vec<WorkerProc> = (1..=3).map(|i| WorkerProc::start(&d.join(format!("w{i}")), Some(TOKEN))).collect();
+    let c3 = cluster(&ws.iter().collect::<Vec<_>>(), TOKEN);
+    assert!(job(&data, &d.join("cache"), Some(c3)).unwrap() == local, "3 workers differ from in-process");
+
+    // again on 3 workers, killing worker 1 with SIGKILL once it has answered two blocks
+    let c3 = cluster(&ws.iter().collect::<Vec<_>>(), TOKEN);
+    let victim_log = std::mem::replace(&mut ws[1].log, std::sync::mpsc::channel().1);
+    let pid = ws[1].child.id();
+    let killer = std::thread::spawn(move || {
+        let mut answered = 0;
+        while let Ok(line) = victim_log.recv_timeout(std::time::Duration::from_secs(120)) {
+            if line.contains("block answered") {
+                answered += 1;
+                if answered == 2 {
+                    let _ = std::process::Command::new("kill").args(["-9", &pid.to_string()]).status();
+                    return answered;
+                }
+            }
+        }
+        answered
+    });
+    let out = job(&data, &d.join("cache"), Some(c3.clone())).unwrap();
+    assert_eq!(killer.join().unwrap(), 2, "the kill happened after two answered blocks");
+    assert_eq!(c3.live().len(), 2, "the killed worker was noticed and its shard moved");
+    assert!(out == local, "output changed after a worker was killed mid-job");
+}
+
+#[test]
+fn losing_every_worker_fails_clearly_without_hanging() {
+    let Some(data) = shared_data() else { return };
+    let d = temp_dir("cluster-lost");
+    let mut w = WorkerProc::start(&d.join("w"), Some(TOKEN));
+    let c = cluster(&[&w], TOKEN);
+    let log = std::mem::replace(&mut w.log, std::sync::mpsc::channel().1);
+    let pid = w.child.id();
+    let killer = std::thread::spawn(move || {
+        while let Ok(line) = log.recv_timeout(std::time::Duration::from_secs(120)) {
+            if line.contains("block answered") {
+                let _ = std::process::Command::new("kill").args(["-9", &pid.to_string()]).status();
+                return;
+            }
+        }
+    });
+    let t = std::time::Instant::now();
+    let err = job(&data, &d.join("cache"), Some(c)).unwrap_err();
+    killer.join().unwrap();
+    assert!(err.contains("no live worker"), "{err}");
+    assert!(t.elapsed().as_secs() < 60, "took {:?}", t.elapsed());
+}
+
+#[test]
+fn a_wrong_token_is_refused() {
+    let d = temp_dir("cluster-token");
+    let w = WorkerProc::start(&d.join("w"), Some(TOKEN));
+    let cfg = ClusterConfig { workers: vec![w.url.clone()], token: Some("wrong".into()), ..Default::default() };
+    let err = Cluster::connect(cfg).unwrap_err().to_string();
+    assert!(err.contains("token"), "{err}");
+    let cfg = ClusterConfig { workers: vec![w.url.clone()], token: None, ..Default::default() };
+    assert!(Cluster::connect(cfg).is_err(), "no token at all is refused too");
+}
+
+#[test]
+fn a_worker_refuses_to_serve_a_public_address_without_a_token() {
+    let o = std::process::Command::new(ridgeline_tests::ridgeline_bin())
+        .args(["worker", "--listen", "0.0.0.0:0"])
+        .env_remove("RIDGELINE_TOKEN")
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("token"));
+}
+
+#[test]
+fn malformed_requests_get_errors_and_the_worker_keeps_serving() {
+    let d = temp_dir("cluster-malformed");
+    let w = WorkerProc::start(&d.join("w"), Some(TOKEN));
+    let rt = tokio::runtime::Runtime::new().unwrap();
+    rt.block_on(async {
+        let channel = tonic::transport::Endpoint::from_shared(w.url.clone()).unwrap().connect().await.unwrap();
+        let token: tonic::metadata::MetadataValue<_> = format!("Bearer {TOKEN}").parse().unwrap();
+        let mut c = v1::worker_client::WorkerClient::with_interceptor(channel, move |mut r: tonic::Request<()>| {
+            r.metadata_mut().insert("authorization", token.clone());
+            Ok(r)
+        });
+        let e = c.missing_exemplars(v1::MissingRequest { content_hashes: vec!["../../etc/passwd".into()] }).await.unwrap_err();
+        assert_eq!(e.code(), tonic::Code::InvalidArgument);
+        let e = c
+            .load_shard(v1::LoadShardRequest { shard_key: "s".into(), patch: 7, out_cell: None, exemplars: vec![] })
+            .await
+            .unwrap_err();
+        assert_eq!(e.code(), tonic::Code::InvalidArgument);
+        let bad_hash = v1::ExemplarRef {
+            source: 0,
+            name: "x".into(),
+            content_hash: "0".repeat(64),
+            cell_size_m: None,
+            to_metres: 1.0,
+            nodata: None,
+        };
+        let e = c
+            .load_shard(v1::LoadShardRequest { shard_key: "s".into(), patch: 64, out_cell: None, exemplars: vec![bad_hash] })
+            .await
+            .unwrap_err();
+        assert_eq!(e.code(), tonic::Code::FailedPrecondition, "an exemplar that was never uploaded");
+        let chunk =
+            v1::ExemplarChunk { content_hash: "a".repeat(64), extension: "exe".into(), total_size: 3, data: vec![1, 2, 3] };
+        let e = c.put_exemplar(tokio_stream::iter(vec![chunk])).await.unwrap_err();
+        assert_eq!(e.code(), tonic::Code::InvalidArgument);
+        let chunk =
+            v1::ExemplarChunk { content_hash: "a".repeat(64), extension: "png".into(), total_size: 3, data: vec![1, 2, 3] };
+        let e = c.put_exemplar(tokio_stream::iter(vec![chunk])).await.unwrap_err();
+        assert_eq!(e.code(), tonic::Code::InvalidArgument, "content that does not match its hash");
+        let req = v1::ScoreRequest { shard_key: "nope".into(), block_index: 0, k: 5, queries: vec![] };
+        let mut replies = c.score(tokio_stream::iter(vec![req])).await.unwrap().into_inner();
+        assert_eq!(replies.message().await.unwrap_err().code(), tonic::Code::NotFound);
+        let e = c.featureless_pool(v1::PoolRequest { shard_key: "nope".into() }).await.unwrap_err();
+        assert_eq!(e.code(), tonic::Code::NotFound);
+        // still serving
+        let cap = c.capabilities(v1::CapabilitiesRequest {}).await.unwrap().into_inner();
+        assert_eq!(cap.protocol_version, ridgeline_proto::PROTOCOL_VERSION);
+    });
+    assert!(std::fs::read_dir(d.join("w/exemplars")).unwrap().next().is_none(), "nothing was stored");
+}

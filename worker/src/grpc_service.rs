@@ -1,0 +1,341 @@
+//! The gRPC worker service (`proto/ridgeline/v1/worker.proto`) over the shard store.
+//!
+//! Security: every call must present the cluster token (`authorization: Bearer …`,
+//! compared in constant time) unless the worker was started without one, which the
+//! CLI allows only on a loopback address; TLS is optional. Messages are bounded
+//! (`MAX_MESSAGE_BYTES`, exemplar uploads by `max_exemplar_bytes`). The worker never
+//! opens a path it was sent: exemplars live in `{data_dir}/exemplars/{sha256}.{ext}`,
+//! named only by validated content hashes and a fixed list of extensions. Malformed
+//! requests get `invalid_argument`, unknown shards `not_found`; the worker keeps
+//! serving.
+
+use crate::{FeatureCache, InProcessShard, ShardConfig};
+use ridgeline_proto::convert::*;
+use ridgeline_proto::v1;
+use ridgeline_proto::v1::worker_server::{Worker, WorkerServer};
+use ridgeline_proto::{MAX_MESSAGE_BYTES, PROTOCOL_VERSION};
+use ridgeline_terrain::library::ExemplarSpec;
+use ridgeline_terrain::shard::{ShardError, ShardScorer};
+use sha2::{Digest, Sha256};
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+use tonic::{Request, Response, Status, Streaming};
+
+/// Extensions an uploaded exemplar may have.
+const EXTENSIONS: [&str; 5] = ["png", "tif", "tiff", "hgt", "asc"];
+
+/// How a worker runs.
+#[derive(Debug, Clone)]
+pub struct WorkerConfig {
+    pub data_dir: PathBuf,
+    pub token: Option<String>,
+    pub max_exemplar_bytes: u64,
+    /// Shards kept loaded (oldest dropped first).
+    pub max_shards: usize,
+    pub threads: usize,
+}
+
+struct Loaded {
+    digest: Vec<u8>,
+    shard: Arc<InProcessShard>,
+    patch: usize,
+}
+
+/// The service state.
+pub struct WorkerService {
+    cfg: WorkerConfig,
+    shards: Arc<Mutex<Vec<(String, Loaded)>>>,
+    pool: Arc<rayon::ThreadPool>,
+}
+
+impl WorkerService {
+    pub fn new(cfg: WorkerConfig) -> std::io::Result<Self> {
+        std::fs::create_dir_all(cfg.data_dir.join("exemplars"))?;
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(cfg.threads).build().map_err(std::io::Error::other)?;
+        Ok(WorkerService { cfg, shards: Arc::new(Mutex::new(Vec::new())), pool: Arc::new(pool) })
+    }
+
+    fn exemplar_path(&self, hash: &str) -> Option<PathBuf> {
+        EXTENSIONS.iter().map(|e| self.cfg.data_dir.join("exemplars").join(format!("{hash}.{e}"))).find(|p| p.is_file())
+    }
+
+    fn shard(&self, key: &str) -> Result<(Arc<InProcessShard>, usize), Status> {
+        let shards = self.shards.lock().map_err(|_| Status::internal("shard table poisoned"))?;
+        shards
+            .iter()
+            .find(|(k, _)| k == key)
+            .map(|(_, l)| (l.shard.clone(), l.patch))
+            .ok_or_else(|| Status::not_found(format!("shard '{key}' is not loaded on this worker")))
+    }
+}
+
+fn shard_status(e: ShardError) -> Status {
+    match e {
+        ShardError::BadRequest(m) => Status::invalid_argument(m),
+        ShardError::Unavailable(m) => Status::unavailable(m),
+    }
+}
+
+/// Checks the bearer token in constant time.
+pub fn check_token(expected: &Option<String>, req: &Request<()>) -> Result<(), Status> {
+    let Some(tok) = expected else { return Ok(()) };
+    let got = req.metadata().get("authorization").and_then(|v| v.to_str().ok()).unwrap_or("");
+    let want = format!("Bearer {tok}");
+    let (a, b) = (got.as_bytes(), want.as_bytes());
+    let mut diff = (a.len() ^ b.len()) as u8;
+    for i in 0..a.len().min(b.len()) {
+        diff |= a[i] ^ b[i];
+    }
+    if diff == 0 && a.len() == b.len() {
+        Ok(())
+    } else {
+        Err(Status::unauthenticated("missing or wrong cluster token"))
+    }
+}
+
+#[tonic::async_trait]
+impl Worker for WorkerService {
+    async fn capabilities(&self, _r: Request<v1::CapabilitiesRequest>) -> Result<Response<v1::CapabilitiesReply>, Status> {
+        Ok(Response::new(v1::CapabilitiesReply {
+            protocol_version: PROTOCOL_VERSION,
+            backend: "cpu".into(),
+            threads: self.pool.current_num_threads() as u32,
+            memory_bytes: system_memory(),
+            version: env!("CARGO_PKG_VERSION").into(),
+        }))
+    }
+
+    async fn missing_exemplars(&self, r: Request<v1::MissingRequest>) -> Result<Response<v1::MissingReply>, Status> {
+        let r = r.into_inner();
+        if r.content_hashes.len() > 100_000 {
+            return Err(Status::invalid_argument("too many hashes"));
+        }
+        let mut missing = Vec::new();
+        for h in r.content_hashes {
+            if !is_content_hash(&h) {
+                return Err(Status::invalid_argument(format!("'{h}' is not a content hash")));
+            }
+            if self.exemplar_path(&h).is_none() {
+                missing.push(h);
+            }
+        }
+        Ok(Response::new(v1::MissingReply { content_hashes: missing }))
+    }
+
+    async fn put_exemplar(&self, r: Request<Streaming<v1::ExemplarChunk>>) -> Result<Response<v1::PutReply>, Status> {
+        let mut stream = r.into_inner();
+        let first = stream.message().await?.ok_or_else(|| Status::invalid_argument("empty upload"))?;
+        let (hash, ext, total) = (first.content_hash.clone(), first.extension.to_ascii_lowercase(), first.total_size);
+        if !is_content_hash(&hash) {
+            return Err(Status::invalid_argument("bad content hash"));
+        }
+        if !EXTENSIONS.contains(&ext.as_str()) {
+            return Err(Status::invalid_argument(format!("extension '{ext}' is not a DEM format")));
+        }
+        if total > self.cfg.max_exemplar_bytes {
+            return Err(Status::invalid_argument(format!("{total} bytes exceeds the limit of {}", self.cfg.max_exemplar_bytes)));
+        }
+        let dir = self.cfg.data_dir.join("exemplars");
+        let tmp = dir.join(format!(".upload-{hash}-{}.tmp", std::process::id()));
+        let mut file = std::fs::File::create(&tmp).map_err(|e| Status::internal(format!("data dir: {e}")))?;
+        let mut hasher = Sha256::new();
+        let mut size = 0u64;
+        let mut chunk = Some(first);
+        let result: Result<(), Status> = async {
+            while let Some(c) = chunk.take() {
+                size += c.data.len() as u64;
+                if size > total {
+                    return Err(Status::invalid_argument("upload longer than announced"));
+                }
+                hasher.update(&c.data);
+                file.write_all(&c.data).map_err(|e| Status::internal(format!("data dir: {e}")))?;
+                chunk = stream.message().await?;
+            }
+            if size != total {
+                return Err(Status::invalid_argument(format!("upload ended after {size} of {total} bytes")));
+            }
+            let got: String = hasher.finalize_reset().iter().map(|b| format!("{b:02x}")).collect();
+            if got != hash {
+                return Err(Status::invalid_argument("content does not match its hash"));
+            }
+            file.sync_all().map_err(|e| Status::internal(e.to_string()))?;
+            std::fs::rename(&tmp, dir.join(format!("{hash}.{ext}"))).map_err(|e| Status::internal(e.to_string()))
+        }
+        .await;
+        if result.is_err() {
+            let _ = std::fs::remove_file(&tmp);
+        }
+        result?;
+        tracing::info!(hash = %hash, bytes = size, "exemplar stored");
+        Ok(Response::new(v1::PutReply { content_hash: hash }))
+    }
+
+    async fn load_shard(&self, r: Request<v1::LoadShardRequest>) -> Result<Response<v1::LoadShardReply>, Status> {
+        let r = r.into_inner();
+        if r.patch < 8 || r.patch > 512 || !r.patch.is_multiple_of(2) {
+            return Err(Status::invalid_argument(format!("patch size {} must be even and within 8..=512", r.patch)));
+        }
+        if r.shard_key.is_empty() || r.shard_key.len() > 256 || r.exemplars.len() > 100_000 {
+            return Err(Status::invalid_argument("bad shard key or exemplar count"));
+        }
+        if let Some(c) = r.out_cell {
+            if !(c.is_finite() && c > 0.0) {
+                return Err(Status::invalid_argument("out_cell must be positive"));
+            }
+        }
+        let digest: Vec<u8> = Sha256::digest(format!("{r:?}").as_bytes()).to_vec();
+        {
+            let shards = self.shards.lock().map_err(|_| Status::internal("poisoned"))?;
+            if let Some((_, l)) = shards.iter().find(|(k, l)| *k == r.shard_key && l.digest == digest) {
+                return Ok(Response::new(v1::LoadShardReply {
+                    sources: l.shard.sources().iter().map(source_to_wire).collect(),
+                    skipped: l.shard.skipped().iter().map(skipped_to_wire).collect(),
+                }));
+            }
+        }
+        let mut items = Vec::new();
+        for e in &r.exemplars {
+            if !is_content_hash(&e.content_hash) {
+                return Err(Status::invalid_argument("bad content hash"));
+            }
+            let path = self
+                .exemplar_path(&e.content_hash)
+                .ok_or_else(|| Status::failed_precondition(format!("exemplar {} ({}) not uploaded", e.name, e.content_hash)))?;
+            if !(e.to_metres.is_finite() && e.to_metres > 0.0) {
+                return Err(Status::invalid_argument("to_metres must be positive"));
+            }
+            items.push((e.source, ExemplarSpec { path, cell_size_m: e.cell_size_m, to_metres: e.to_metres, nodata: e.nodata }));
+        }
+        let cfg = ShardConfig {
+            patch: r.patch as usize,
+            out_cell: r.out_cell,
+            max_side: ridgeline_terrain::io::DEFAULT_MAX_SIDE,
+            cache: Some(FeatureCache::new(self.cfg.data_dir.join("features"))),
+        };
+        let pool = self.pool.clone();
+        let names: BTreeMap<String, String> = r.exemplars.iter().map(|e| (e.content_hash.clone(), e.name.clone())).collect();
+        let shard = tokio::task::spawn_blocking(move || pool.install(|| InProcessShard::load(&items, &cfg)))
+            .await
+            .map_err(|e| Status::internal(e.to_string()))?;
+        let shard = Arc::new(shard.with_names(&names));
+        let reply = v1::LoadShardReply {
+            sources: shard.sources().iter().map(source_to_wire).collect(),
+            skipped: shard.skipped().iter().map(skipped_to_wire).collect(),
+        };
+        tracing::info!(shard = %r.shard_key, sources = reply.sources.len(), "shard loaded");
+        let mut shards = self.shards.lock().map_err(|_| Status::internal("poisoned"))?;
+        shards.retain(|(k, _)| *k != r.shard_key);
+        shards.push((r.shard_key, Loaded { digest, shard, patch: r.patch as usize }));
+        while shards.len() > self.cfg.max_shards.max(1) {
+            shards.remove(0);
+        }
+        Ok(Response::new(reply))
+    }
+
+    type ScoreStream = tokio_stream::wrappers::ReceiverStream<Result<v1::ScoreReply, Status>>;
+
+    async fn score(&self, r: Request<Streaming<v1::ScoreRequest>>) -> Result<Response<Self::ScoreStream>, Status> {
+        let mut inbound = r.into_inner();
+        let (tx, rx) = tokio::sync::mpsc::channel(4);
+        let this = ScoreCtx { shards: self.shards.clone(), pool: self.pool.clone() };
+        tokio::spawn(async move {
+            loop {
+                let msg = match inbound.message().await {
+                    Ok(Some(m)) => m,
+                    Ok(None) => break,
+                    Err(s) => {
+                        let _ = tx.send(Err(s)).await;
+                        break;
+                    }
+                };
+                let reply = this.answer(msg).await;
+                let failed = reply.is_err();
+                if tx.send(reply).await.is_err() || failed {
+                    break;
+                }
+            }
+        });
+        Ok(Response::new(tokio_stream::wrappers::ReceiverStream::new(rx)))
+    }
+
+    async fn featureless_pool(&self, r: Request<v1::PoolRequest>) -> Result<Response<v1::PoolReply>, Status> {
+        let (shard, _) = self.shard(&r.into_inner().shard_key)?;
+        let pool = shard.featureless_pool().map_err(shard_status)?;
+        Ok(Response::new(v1::PoolReply { candidates: pool.iter().map(pool_to_wire).collect() }))
+    }
+}
+
+struct ScoreCtx {
+    shards: Arc<Mutex<Vec<(String, Loaded)>>>,
+    pool: Arc<rayon::ThreadPool>,
+}
+
+impl ScoreCtx {
+    async fn answer(&self, msg: v1::ScoreRequest) -> Result<v1::ScoreReply, Status> {
+        let shard = {
+            let shards = self.shards.lock().map_err(|_| Status::internal("poisoned"))?;
+            shards
+                .iter()
+                .find(|(k, _)| *k == msg.shard_key)
+                .map(|(_, l)| l.shard.clone())
+                .ok_or_else(|| Status::not_found(format!("shard '{}' is not loaded on this worker", msg.shard_key)))?
+        };
+        if msg.k == 0 || msg.k > 64 || msg.queries.len() > 4096 {
+            return Err(Status::invalid_argument("k must be within 1..=64 and a block at most 4096 user patches"));
+        }
+        let queries =
+            msg.queries.into_iter().map(query_from_wire).collect::<Result<Vec<_>, _>>().map_err(Status::invalid_argument)?;
+        let (pool, k, index) = (self.pool.clone(), msg.k as usize, msg.block_index);
+        let sets = tokio::task::spawn_blocking(move || pool.install(|| shard.score_block(&queries, k)))
+            .await
+            .map_err(|e| Status::internal(e.to_string()))?
+            .map_err(shard_status)?;
+        tracing::info!(block = index, best_sets = sets.len(), "block answered");
+        Ok(v1::ScoreReply { block_index: index, best_sets: sets.iter().map(best_set_to_wire).collect() })
+    }
+}
+
+fn system_memory() -> u64 {
+    std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|s| {
+            s.lines().find(|l| l.starts_with("MemTotal:")).and_then(|l| l.split_whitespace().nth(1)?.parse::<u64>().ok())
+        })
+        .map(|kb| kb * 1024)
+        .unwrap_or(0)
+}
+
+/// TLS identity files for the server.
+pub struct TlsFiles {
+    pub cert: PathBuf,
+    pub key: PathBuf,
+}
+
+/// Serves the worker on `listener` until `shutdown` resolves. Prints nothing; the
+/// caller reports the bound address.
+pub async fn serve(
+    listener: tokio::net::TcpListener,
+    cfg: WorkerConfig,
+    tls: Option<TlsFiles>,
+    shutdown: impl std::future::Future<Output = ()> + Send,
+) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
+    let token = cfg.token.clone();
+    let svc = WorkerServer::new(WorkerService::new(cfg)?)
+        .max_decoding_message_size(MAX_MESSAGE_BYTES)
+        .max_encoding_message_size(MAX_MESSAGE_BYTES);
+    let server =
+        tonic::service::interceptor::InterceptedService::new(svc, move |req: Request<()>| check_token(&token, &req).map(|_| req));
+    let mut builder = tonic::transport::Server::builder();
+    if let Some(t) = tls {
+        let read = |p: &Path| std::fs::read(p).map_err(|e| format!("{}: {e}", p.display()));
+        let identity = tonic::transport::Identity::from_pem(read(&t.cert)?, read(&t.key)?);
+        builder = builder.tls_config(tonic::transport::ServerTlsConfig::new().identity(identity))?;
+    }
+    builder
+        .add_service(server)
+        .serve_with_incoming_shutdown(tokio_stream::wrappers::TcpListenerStream::new(listener), shutdown)
+        .await?;
+    Ok(())
+}
