@@ -9,21 +9,14 @@
 
 use ridgeline::cluster::{Cluster, ClusterConfig};
 use ridgeline::pipeline::{run_job, SynthConfig, SynthReport};
+mod common;
+
+use common::{median, runs, shared_data};
 use std::collections::BTreeMap;
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
-
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
 
 struct Worker(std::process::Child, String);
 impl Drop for Worker {
@@ -92,14 +85,8 @@ fn run(sketch: &Path, dems: &Path, cache: &Path, workers: &[Worker]) -> Run {
 }
 
 fn main() {
-    let data = std::env::var_os("RIDGELINE_SHARED_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data"));
-    if !data.join("dems").is_dir() {
-        eprintln!("SKIPPED: shared data not found at {}", data.display());
-        return;
-    }
-    let runs: usize = std::env::var("RIDGELINE_BENCH_RUNS").ok().and_then(|v| v.parse().ok()).unwrap_or(3).max(1);
+    let Some(data) = shared_data() else { return };
+    let runs = runs(3);
     let name = std::env::var("RIDGELINE_BENCH_SKETCH").unwrap_or_else(|_| "small-range-512".into());
     let sketch = data.join("sketches").join(format!("{name}.png"));
     let dems = data.join("dems");

@@ -7,29 +7,15 @@
 //! default 5; RIDGELINE_BENCH_SKETCHES a comma-separated subset of sketch names).
 
 use ridgeline::pipeline::{run_job, SynthConfig};
+mod common;
+
+use common::{median, runs, shared_data};
 use std::collections::BTreeMap;
-use std::path::PathBuf;
 use std::time::Instant;
 
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
-
 fn main() {
-    let data = std::env::var_os("RIDGELINE_SHARED_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data"));
-    if !data.join("dems").is_dir() {
-        eprintln!("SKIPPED: shared data not found at {} (set RIDGELINE_SHARED_DATA)", data.display());
-        return;
-    }
-    let runs: usize = std::env::var("RIDGELINE_BENCH_RUNS").ok().and_then(|v| v.parse().ok()).unwrap_or(5).max(1);
+    let Some(data) = shared_data() else { return };
+    let runs = runs(5);
     let sketches: Vec<String> = std::env::var("RIDGELINE_BENCH_SKETCHES")
         .map(|v| v.split(',').map(|s| s.trim().to_string()).collect())
         .unwrap_or_else(|_| vec!["small-range-512".into(), "mixed-1024".into()]);
