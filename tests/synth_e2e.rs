@@ -68,7 +68,11 @@ fn a_different_seed_gives_a_different_terrain() {
     let data = shared_data().unwrap();
     let cfg = SynthConfig { seed: 7, cache_dir: Some(cold.cache.clone()), ..Default::default() };
     let other = run_job(&data.join("sketches/small-range-512.png"), &data.join("dems"), &cfg).expect("synthesis");
-    assert_ne!(other.terrain, cold.out.terrain);
+    // not a different rounding: a visibly different terrain
+    let changed = other.terrain.data.iter().zip(&cold.out.terrain.data).filter(|(a, b)| (*a - *b).abs() > 1.0).count();
+    let frac = changed as f64 / other.terrain.data.len() as f64;
+    eprintln!("seed 7 changes {:.0}% of the cells of seed 0 by more than 1 m", frac * 100.0);
+    assert!(frac >= 0.2, "only {:.1}% of cells changed", frac * 100.0);
 }
 
 #[test]

@@ -12,18 +12,25 @@
 //! that run into a hole are continued first.
 //!
 //! Matching: round 1 scores every featureless candidate in every variant by overlap
-//! cost (mean offset removed, over every second cell of the overlap) and noise
-//! variance; the five cheapest go through the graph cut as in round 2; the merge is
-//! the same gradient-domain merge as for feature patches.
+//! cost (mean offset removed, over every second cell of the overlap), noise variance
+//! and a coherence bonus for the exemplars the window already shows ([`BETA_C`]); the
+//! five cheapest go through the graph cut as in round 2; the merge is the same
+//! gradient-domain merge as for feature patches.
 
 use crate::merge::{Canvas, Placement};
-use crate::selection::{finite_std, graph_cut_choice, jitter, output_patch, REPEAT_PENALTY};
+use crate::selection::{finite_std, graph_cut_choice, jitter, output_patch, REPEAT_PENALTY, SEED_JITTER};
 use rayon::prelude::*;
 use ridgeline_terrain::costs::{noise_cost, noise_variances, ALPHA_N, ALPHA_O};
 use ridgeline_terrain::patch_geometry::{Variant, FEATURELESS_VARIANTS};
 use ridgeline_terrain::shard::FeaturelessCandidate;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
+
+/// Weight of the coherence bonus: a candidate from an exemplar that already makes up
+/// a fraction f of the window's filled cells costs `BETA_C * f` less, so a hole is
+/// continued in the terrain style around it (real neighbouring terrain shares its
+/// geology) instead of a patchwork of every source in the library.
+pub const BETA_C: f32 = 0.3;
 
 /// Why hole filling could not finish.
 #[derive(Debug, thiserror::Error)]
@@ -200,6 +207,17 @@ pub fn fill_holes(
         let filled = full_old.iter().filter(|v| !v.is_nan()).count();
         let user_noise = if filled * 4 >= p * p { noise_variances(&full_old, p) } else { None };
         let relief = finite_std(&full_old).max(median_relief);
+        // which exemplars the filled part of the window came from
+        let mut from: std::collections::BTreeMap<u32, usize> = Default::default();
+        for j in 0..win.h {
+            for i in 0..win.w {
+                let id = canvas.provenance.get(win.x0 + i, win.y0 + j);
+                if id != u32::MAX {
+                    *from.entry(canvas.placements[id as usize].source).or_default() += 1;
+                }
+            }
+        }
+        let coherence = |source: u32| from.get(&source).map(|&n| n as f32 / filled.max(1) as f32).unwrap_or(0.0);
         let mut scored: Vec<(f32, usize)> = (0..pool.len() * maps.len())
             .into_par_iter()
             .map(|idx| {
@@ -216,8 +234,8 @@ pub fn fill_holes(
                 let co = ((s2 / n - (s / n) * (s / n)).max(0.0)).sqrt() as f32 / relief;
                 let cn = user_noise.map(|u| noise_cost(&u, &c.noise)).unwrap_or(0.0);
                 let rep = if crate::selection::repeats(canvas, c.source, c.x, c.y, cx, cy) { REPEAT_PENALTY } else { 0.0 };
-                let j = 1e-3 * jitter(seed, &[c.source as u64, c.x as u64, c.y as u64, vi as u64, 7]);
-                (ALPHA_O * co + ALPHA_N * cn + rep + j, idx)
+                let j = SEED_JITTER * jitter(seed, &[c.source as u64, c.x as u64, c.y as u64, vi as u64, 7]);
+                (ALPHA_O * co + ALPHA_N * cn - BETA_C * coherence(c.source) + rep + j, idx)
             })
             .collect();
         scored.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));

@@ -10,14 +10,27 @@
 //! edge) rather than used alone, so the feature fit still counts among the five. The
 //! repetition penalty applies to any reuse of the same source region within three
 //! patches of where it was placed before, not just the previous patch (Crause §6.6
-//! leaves that as future work). The seed adds a jitter of at most 1e-3, enough to pick
-//! among near-equal candidates differently per seed and never more.
+//! leaves that as future work). A prominence term (see [`ALPHA_P`]) prefers, among
+//! candidates of equal shape, those with more relief. The seed adds a jitter of at
+//! most [`SEED_JITTER`], enough to pick among near-equal candidates differently per
+//! seed and never more.
 
 use crate::graph_cut::{find_seam, Force, Seam};
 use crate::merge::{Canvas, Placement, Win};
 use rayon::prelude::*;
 use ridgeline_terrain::costs::{noise_cost, noise_variances, overlap_cost, ALPHA_N, ALPHA_O};
 use ridgeline_terrain::shard::ScoredCandidate;
+
+/// Weight of the prominence term: a candidate whose relief is below the top quartile
+/// of its rivals' pays up to this much. Profiles are compared by shape only, so a
+/// dune crest matches a ridge stroke as well as a mountain ridge does; a sketched ridge
+/// should read as a ridge, so among equal shapes the more prominent one wins.
+pub const ALPHA_P: f32 = 0.5;
+
+/// Largest cost the seed adds to a candidate: enough to choose differently among
+/// candidates within a few percent of each other (so each seed gives its own terrain),
+/// never enough to prefer a clearly worse one.
+pub const SEED_JITTER: f32 = 0.03;
 
 /// Cost added for reusing a source region near where it was already placed.
 pub const REPEAT_PENALTY: f32 = 2.0;
@@ -121,9 +134,11 @@ pub fn select_and_merge(canvas: &mut Canvas, cx: usize, cy: usize, cands: &[Scor
     let mask: Vec<bool> = full_old.iter().map(|v| !v.is_nan()).collect();
     let filled = mask.iter().filter(|&&m| m).count();
     let user_noise = if filled * 4 >= p * p { noise_variances(&full_old, p) } else { None };
-    let mut cand_relief: Vec<f32> = cands.iter().map(|c| finite_std(&c.pixels)).collect();
+    let cand_std: Vec<f32> = cands.iter().map(|c| finite_std(&c.pixels)).collect();
+    let mut cand_relief = cand_std.clone();
     cand_relief.sort_by(f32::total_cmp);
     let relief = finite_std(&full_old).max(cand_relief[cand_relief.len() / 2]).max(1e-3);
+    let strong = cand_relief[cand_relief.len() * 3 / 4].max(1e-3);
     let mut scored: Vec<(f32, usize)> = cands
         .par_iter()
         .enumerate()
@@ -134,8 +149,10 @@ pub fn select_and_merge(canvas: &mut Canvas, cx: usize, cy: usize, cands: &[Scor
                 _ => 0.0,
             };
             let rep = if repeats(canvas, c.cand.source, c.cand.x, c.cand.y, cx, cy) { REPEAT_PENALTY } else { 0.0 };
-            let j = 1e-3 * jitter(seed, &[c.cand.source as u64, c.cand.x as u64, c.cand.y as u64, c.cand.variant.0 as u64]);
-            (c.cost + ALPHA_O * co / relief + ALPHA_N * cn + rep + j, i)
+            let j =
+                SEED_JITTER * jitter(seed, &[c.cand.source as u64, c.cand.x as u64, c.cand.y as u64, c.cand.variant.0 as u64]);
+            let weak = ALPHA_P * (1.0 - cand_std[i] / strong).max(0.0);
+            (c.cost + ALPHA_O * co / relief + ALPHA_N * cn + weak + rep + j, i)
         })
         .collect();
     scored.sort_by(|a, b| a.0.total_cmp(&b.0).then(cands[a.1].cand.cmp(&cands[b.1].cand)));

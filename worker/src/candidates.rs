@@ -5,10 +5,12 @@
 //! from the border for the patch to fit in every variant, each with its control
 //! points (exit angles on the circle of radius patch/4).
 //!
-//! Featureless candidates sit on a regular grid of about 8 x 8 centres per exemplar
-//! and keep only centres at least patch/8 from any feature cell (Crause §7.1). Where
-//! a rugged exemplar leaves fewer than 8, the 8 centres farthest from a feature are
-//! kept instead, so every source still contributes.
+//! Featureless candidates sit on a regular grid of 12 x 12 centres per exemplar (Crause
+//! §7.1 uses about 8 x 8; a larger pool gives hole filling more variety, which the
+//! coherence bonus needs so that staying with one exemplar does not mean repeating
+//! it) and keep only centres at least patch/8 from any feature cell. Where a rugged
+//! exemplar leaves fewer than 8, the 8 centres farthest from a feature are kept
+//! instead, so every source still contributes.
 
 use ridgeline_terrain::costs::noise_variances;
 use ridgeline_terrain::feature_extraction::FeatureGraph;
@@ -117,7 +119,7 @@ pub fn featureless_patches(h: &Grid<f32>, ridges: &FeatureGraph, valleys: &Featu
     let half = patch / 2;
     let axis = |n: usize| -> Vec<usize> {
         let (lo, hi) = (half, n - half - 1);
-        let steps = 8usize;
+        let steps = 12usize;
         let mut v: Vec<usize> = (0..steps).map(|i| lo + (hi - lo) * i / (steps - 1)).collect();
         v.dedup();
         v
