@@ -12,7 +12,7 @@
 //! that run into a hole are continued first.
 //!
 //! Matching: round 1 scores every featureless candidate in every variant by overlap
-//! cost (mean offset removed, over every second cell of the overlap), noise variance
+//! cost (mean offset removed, over every third cell of the overlap each way), noise variance
 //! and a coherence bonus for the exemplars the window already shows ([`BETA_C`]); the
 //! five cheapest go through the graph cut as in round 2; the merge is the same
 //! gradient-domain merge as for feature patches.
@@ -47,6 +47,11 @@ pub struct FillStats {
     pub fills: usize,
     pub cells_filled: usize,
     pub cg_iterations: usize,
+    /// Seconds spent choosing targets, scoring candidates, cutting seams, merging.
+    pub target_s: f64,
+    pub score_s: f64,
+    pub cut_s: f64,
+    pub merge_s: f64,
 }
 
 /// Index maps of the 6 variants: output patch cell → stored candidate cell, rotating
@@ -193,15 +198,17 @@ pub fn fill_holes(
         if stats.fills >= max_fills {
             break;
         }
+        let t_score = std::time::Instant::now();
         let (cx, cy) = (front.xs[k % front.xs.len()], front.ys[k / front.xs.len()]);
         let win = canvas.window(cx, cy);
         let old = canvas.old_values(&win);
         let full_old = output_patch(canvas, &win, &old);
-        // round 1: overlap (every second cell) + noise variance, all candidates x variants
+        // round 1: overlap (every third cell each way) + noise variance, all candidates
+        // x variants; the five best then go through the exact graph cut
         let sample: Vec<(usize, f32)> = full_old
             .iter()
             .enumerate()
-            .filter(|(i, v)| !v.is_nan() && (i % p).is_multiple_of(2) && (i / p).is_multiple_of(2))
+            .filter(|(i, v)| !v.is_nan() && (i % p).is_multiple_of(3) && (i / p).is_multiple_of(3))
             .map(|(i, &v)| (i, v))
             .collect();
         let filled = full_old.iter().filter(|v| !v.is_nan()).count();
@@ -243,10 +250,14 @@ pub fn fill_holes(
             let (c, map) = (&pool[idx / maps.len()], &maps[idx % maps.len()]);
             map.iter().map(|&m| c.pixels[m as usize]).collect()
         };
+        stats.score_s += t_score.elapsed().as_secs_f64();
+        let t_cut = std::time::Instant::now();
         let force = canvas.forces(&win, &old, 0.0);
         let Some(choice) = graph_cut_choice(&win, &old, &force, &scored, &pixels, relief) else {
             break;
         };
+        stats.cut_s += t_cut.elapsed().as_secs_f64();
+        let t_merge = std::time::Instant::now();
         let c = &pool[choice.index / maps.len()];
         let variant: Variant = FEATURELESS_VARIANTS[choice.index % maps.len()];
         let m = canvas.merge(
@@ -259,6 +270,8 @@ pub fn fill_holes(
         stats.cells_filled += m.new_cells;
         stats.cg_iterations += m.cg_iterations;
         on_fill(canvas.empty as u64);
+        stats.merge_s += t_merge.elapsed().as_secs_f64();
+        let t_front = std::time::Instant::now();
         // refresh the lattice points whose windows overlap the merged window
         let (x0, x1) = (win.x0.saturating_sub(p / 2), win.x0 + win.w + p / 2);
         let (y0, y1) = (win.y0.saturating_sub(p / 2), win.y0 + win.h + p / 2);
@@ -272,6 +285,7 @@ pub fn fill_holes(
                 }
             }
         }
+        stats.target_s += t_front.elapsed().as_secs_f64();
     }
     match canvas.empty {
         0 => Ok(stats),

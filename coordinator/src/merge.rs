@@ -287,6 +287,15 @@ impl Canvas {
         let mut delta_x = vec![0f32; n];
         let mut delta_y = vec![0f32; n];
         let mut guess = vec![0f32; n];
+        // seam points bucketed by dphi-sized cells: a cell only looks at the 3 x 3
+        // buckets around it, the only ones within dphi
+        let bs = dphi.ceil() as usize;
+        let (bw, bh) = (ew / bs + 1, eh / bs + 1);
+        let mut buckets: Vec<Vec<usize>> = vec![Vec::new(); bw * bh];
+        for (k, s) in seam_pts.iter().enumerate() {
+            buckets[(s.y as usize / bs) * bw + s.x as usize / bs].push(k);
+        }
+        let dphi2 = dphi * dphi;
         for j in 0..eh {
             for i in 0..ew {
                 let e = j * ew + i;
@@ -295,13 +304,22 @@ impl Canvas {
                 }
                 let (mut sw, mut sx, mut sy, mut sv) = (0f32, 0f32, 0f32, 0f32);
                 let mut exact = None;
-                for s in &seam_pts {
-                    let d = ((s.x - i as f32).powi(2) + (s.y - j as f32).powi(2)).sqrt();
+                let (bi, bj) = (i / bs, j / bs);
+                let near = (bj.saturating_sub(1)..=(bj + 1).min(bh - 1))
+                    .flat_map(|y| (bi.saturating_sub(1)..=(bi + 1).min(bw - 1)).map(move |x| y * bw + x))
+                    .flat_map(|b| buckets[b].iter());
+                for &k in near {
+                    let s = &seam_pts[k];
+                    let d2 = (s.x - i as f32).powi(2) + (s.y - j as f32).powi(2);
+                    if d2 >= dphi2 {
+                        continue;
+                    }
+                    let d = d2.sqrt();
                     if d < 1e-6 {
                         exact = Some(s);
                         break;
                     }
-                    if d < dphi {
+                    {
                         let wgt = ((dphi - d) / (dphi * d)).powi(2);
                         sw += wgt;
                         sx += wgt * s.rx;

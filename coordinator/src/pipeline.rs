@@ -423,7 +423,16 @@ fn synthesize_in(
     };
     report.hole_fills = fill.fills;
     report.cells_filled_by_holes = fill.cells_filled;
-    tracing::info!(fills = fill.fills, cells = fill.cells_filled, "holes filled");
+    tracing::info!(
+        fills = fill.fills,
+        cells = fill.cells_filled,
+        target_s = fill.target_s,
+        score_s = fill.score_s,
+        cut_s = fill.cut_s,
+        merge_s = fill.merge_s,
+        cg_iterations = fill.cg_iterations,
+        "holes filled"
+    );
     report.stage("hole_filling", t);
     let d = p as f32 / 4.0;
     report.ridge_adherence =

@@ -225,6 +225,15 @@ pub fn normalise_profile(v: &mut [f32], min_range: f32) {
 pub fn extract_patch(src: &Grid<f32>, cx: usize, cy: usize, size: usize, v: Variant) -> Vec<f32> {
     let half = (size / 2) as f32;
     let mut out = Vec::with_capacity(size * size);
+    let (x0, y0) = (cx as i64 - (size / 2) as i64, cy as i64 - (size / 2) as i64);
+    if v.0 == 0 && x0 >= 0 && y0 >= 0 && x0 as usize + size <= src.width && y0 as usize + size <= src.height {
+        // the common untransformed case inside the source: whole rows
+        for j in 0..size {
+            let row = (y0 as usize + j) * src.width + x0 as usize;
+            out.extend_from_slice(&src.data[row..row + size]);
+        }
+        return out;
+    }
     for j in 0..size {
         for i in 0..size {
             let (ox, oy) = (i as f32 - half, j as f32 - half);
