@@ -40,13 +40,23 @@ pub struct WorkerConfig {
 struct Loaded {
     digest: Vec<u8>,
     shard: Arc<InProcessShard>,
-    patch: usize,
+}
+
+type ShardTable = Arc<Mutex<Vec<(String, Loaded)>>>;
+
+fn find_shard(shards: &ShardTable, key: &str) -> Result<Arc<InProcessShard>, Status> {
+    let shards = shards.lock().map_err(|_| Status::internal("shard table poisoned"))?;
+    shards
+        .iter()
+        .find(|(k, _)| k == key)
+        .map(|(_, l)| l.shard.clone())
+        .ok_or_else(|| Status::not_found(format!("shard '{key}' is not loaded on this worker")))
 }
 
 /// The service state.
 pub struct WorkerService {
     cfg: WorkerConfig,
-    shards: Arc<Mutex<Vec<(String, Loaded)>>>,
+    shards: ShardTable,
     pool: Arc<rayon::ThreadPool>,
 }
 
@@ -59,15 +69,6 @@ impl WorkerService {
 
     fn exemplar_path(&self, hash: &str) -> Option<PathBuf> {
         EXTENSIONS.iter().map(|e| self.cfg.data_dir.join("exemplars").join(format!("{hash}.{e}"))).find(|p| p.is_file())
-    }
-
-    fn shard(&self, key: &str) -> Result<(Arc<InProcessShard>, usize), Status> {
-        let shards = self.shards.lock().map_err(|_| Status::internal("shard table poisoned"))?;
-        shards
-            .iter()
-            .find(|(k, _)| k == key)
-            .map(|(_, l)| (l.shard.clone(), l.patch))
-            .ok_or_else(|| Status::not_found(format!("shard '{key}' is not loaded on this worker")))
     }
 }
 
@@ -227,7 +228,7 @@ impl Worker for WorkerService {
         tracing::info!(shard = %r.shard_key, sources = reply.sources.len(), "shard loaded");
         let mut shards = self.shards.lock().map_err(|_| Status::internal("poisoned"))?;
         shards.retain(|(k, _)| *k != r.shard_key);
-        shards.push((r.shard_key, Loaded { digest, shard, patch: r.patch as usize }));
+        shards.push((r.shard_key, Loaded { digest, shard }));
         while shards.len() > self.cfg.max_shards.max(1) {
             shards.remove(0);
         }
@@ -261,27 +262,20 @@ impl Worker for WorkerService {
     }
 
     async fn featureless_pool(&self, r: Request<v1::PoolRequest>) -> Result<Response<v1::PoolReply>, Status> {
-        let (shard, _) = self.shard(&r.into_inner().shard_key)?;
+        let shard = find_shard(&self.shards, &r.into_inner().shard_key)?;
         let pool = shard.featureless_pool().map_err(shard_status)?;
         Ok(Response::new(v1::PoolReply { candidates: pool.iter().map(pool_to_wire).collect() }))
     }
 }
 
 struct ScoreCtx {
-    shards: Arc<Mutex<Vec<(String, Loaded)>>>,
+    shards: ShardTable,
     pool: Arc<rayon::ThreadPool>,
 }
 
 impl ScoreCtx {
     async fn answer(&self, msg: v1::ScoreRequest) -> Result<v1::ScoreReply, Status> {
-        let shard = {
-            let shards = self.shards.lock().map_err(|_| Status::internal("poisoned"))?;
-            shards
-                .iter()
-                .find(|(k, _)| *k == msg.shard_key)
-                .map(|(_, l)| l.shard.clone())
-                .ok_or_else(|| Status::not_found(format!("shard '{}' is not loaded on this worker", msg.shard_key)))?
-        };
+        let shard = find_shard(&self.shards, &msg.shard_key)?;
         if msg.k == 0 || msg.k > 64 || msg.queries.len() > 4096 {
             return Err(Status::invalid_argument("k must be within 1..=64 and a block at most 4096 user patches"));
         }
