@@ -25,7 +25,8 @@ use ridgeline_terrain::shard::{
     BestSet, FeaturelessCandidate, ShardError, ShardScorer, SkippedExemplar, SourceInfo, UserPatchQuery,
 };
 use sha2::{Digest, Sha256};
-use std::path::PathBuf;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -487,39 +488,33 @@ impl ShardScorer for RemoteShard {
     }
 }
 
-/// Splits `items` into `n` shards balanced by estimated candidate count: feature
-/// candidates grow with an exemplar's area at the output cell size, which is known
-/// from the file header without extracting features, so shards get equal total area
-/// (longest-processing-time-first greedy, ties by source index).
-pub fn plan_shards(items: &[(u32, ExemplarSpec)], n: usize, out_cell: Option<f32>) -> Vec<Vec<(u32, ExemplarSpec)>> {
+/// Splits items of the given weights into `n` shards of near-equal total weight
+/// (longest-processing-time-first greedy; ties by index). Returns item indices.
+pub fn plan_shards(weights: &[u64], n: usize) -> Vec<Vec<usize>> {
     let n = n.max(1);
-    let mut est: Vec<(u64, usize)> = items
-        .iter()
-        .enumerate()
-        .map(|(i, (_, spec))| {
-            let (w, h) = header_size(spec).unwrap_or((1, 1));
-            let f = match (spec.cell_size_m, out_cell) {
-                (Some(s), Some(o)) if o > 0.0 => (s / o) as f64,
-                _ => 1.0,
-            };
-            (((w as f64 * f) * (h as f64 * f)) as u64, i)
-        })
-        .collect();
-    est.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
+    let mut order: Vec<usize> = (0..weights.len()).collect();
+    order.sort_by(|&a, &b| weights[b].cmp(&weights[a]).then(a.cmp(&b)));
     let mut load = vec![0u64; n];
     let mut shards: Vec<Vec<usize>> = vec![Vec::new(); n];
-    for (e, i) in est {
+    for i in order {
         let s = (0..n).min_by_key(|&s| (load[s], s)).unwrap_or(0);
-        load[s] += e;
+        load[s] += weights[i];
         shards[s].push(i);
     }
+    for s in &mut shards {
+        s.sort_unstable();
+    }
     shards
-        .into_iter()
-        .map(|mut v| {
-            v.sort_unstable();
-            v.into_iter().map(|i| items[i].clone()).collect()
-        })
-        .collect()
+}
+
+/// An exemplar's area in output cells, from its header.
+fn area_estimate(spec: &ExemplarSpec, out_cell: Option<f32>) -> u64 {
+    let (w, h) = header_size(spec).unwrap_or((1, 1));
+    let f = match (spec.cell_size_m.or_else(|| ridgeline_terrain::dem_formats::probe_cell_size(&spec.path)), out_cell) {
+        (Some(s), Some(o)) if o > 0.0 => (s / o) as f64,
+        _ => 1.0,
+    };
+    ((w as f64 * f) * (h as f64 * f)).max(1.0) as u64
 }
 
 fn header_size(spec: &ExemplarSpec) -> Option<(usize, usize)> {
@@ -533,22 +528,65 @@ fn header_size(spec: &ExemplarSpec) -> Option<(usize, usize)> {
     Some((d.heights.width, d.heights.height))
 }
 
-/// Loads a library onto a cluster: one shard per live worker.
+/// Candidate counts per exemplar seen by earlier jobs, kept in the coordinator's cache
+/// folder (`candidate-counts.json`, keyed by content hash, patch and cell size).
+fn counts_path(cache: &Path) -> PathBuf {
+    cache.join("candidate-counts.json")
+}
+
+fn count_key(e: &RemoteExemplar, patch: usize, out_cell: Option<f32>) -> String {
+    format!("{}:{patch}:{out_cell:?}", e.wire.content_hash)
+}
+
+/// Loads a library onto a cluster: one shard per live worker, balanced by candidate
+/// count. The candidate count of an exemplar is known only once a worker has extracted
+/// its features, so a library's first job balances by area at the output cell size (a
+/// proxy: candidates grow with area) and records the true counts; later jobs balance
+/// by those (areas of new exemplars are scaled to candidate units by the known ratio).
 pub fn remote_shards(
     cluster: &Arc<Cluster>,
     items: &[(u32, ExemplarSpec)],
     patch: usize,
     out_cell: Option<f32>,
+    cache: Option<&Path>,
 ) -> Result<Vec<Arc<dyn ShardScorer>>, ShardError> {
     let live = cluster.live();
-    let plan = plan_shards(items, live.len(), out_cell);
+    let ex = remote_exemplars(items).map_err(|e| ShardError::BadRequest(e.to_string()))?;
+    let mut known: BTreeMap<String, u64> =
+        cache.and_then(|c| std::fs::read(counts_path(c)).ok()).and_then(|b| serde_json::from_slice(&b).ok()).unwrap_or_default();
+    let areas: Vec<u64> = items.iter().map(|(_, s)| area_estimate(s, out_cell)).collect();
+    let ratios: Vec<f64> = ex
+        .iter()
+        .zip(&areas)
+        .filter_map(|(e, &a)| known.get(&count_key(e, patch, out_cell)).map(|&c| c as f64 / a as f64))
+        .collect();
+    let ratio = if ratios.is_empty() { 1.0 } else { ratios.iter().sum::<f64>() / ratios.len() as f64 };
+    let weights: Vec<u64> = ex
+        .iter()
+        .zip(&areas)
+        .map(|(e, &a)| known.get(&count_key(e, patch, out_cell)).copied().unwrap_or(((a as f64) * ratio).max(1.0) as u64))
+        .collect();
     let mut shards: Vec<Arc<dyn ShardScorer>> = Vec::new();
-    for (i, part) in plan.into_iter().enumerate() {
+    for (i, part) in plan_shards(&weights, live.len()).into_iter().enumerate() {
         if part.is_empty() {
             continue;
         }
-        let ex = remote_exemplars(&part).map_err(|e| ShardError::BadRequest(e.to_string()))?;
-        shards.push(Arc::new(RemoteShard::assign(cluster.clone(), i, ex, patch, out_cell, live[i])?));
+        let shard_ex: Vec<RemoteExemplar> = part.iter().map(|&k| ex[k].clone()).collect();
+        let shard = RemoteShard::assign(cluster.clone(), i, shard_ex, patch, out_cell, live[i])?;
+        for s in shard.sources() {
+            if let Some(e) = ex.iter().find(|e| e.wire.source == s.source) {
+                let count = (s.feature_nodes[0] + s.feature_nodes[1]) * 10 + s.featureless * 6;
+                known.insert(count_key(e, patch, out_cell), count.max(1) as u64);
+            }
+        }
+        shards.push(Arc::new(shard));
+    }
+    if let Some(c) = cache {
+        if std::fs::create_dir_all(c).is_ok() {
+            if let Ok(b) = serde_json::to_vec(&known) {
+                let _ = ridgeline_terrain::io::write_atomic(&counts_path(c), &b);
+            }
+        }
     }
     Ok(shards)
 }
@@ -558,19 +596,12 @@ mod tests {
     use super::*;
 
     #[test]
-    fn shards_balance_area() {
-        let dir = std::env::temp_dir().join(format!("rl-plan-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let mut items = Vec::new();
-        for (i, side) in [200u32, 100, 100, 100, 100, 50].iter().enumerate() {
-            let p = dir.join(format!("e{i}.png"));
-            image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::new(*side, *side).save(&p).unwrap();
-            items.push((i as u32, ExemplarSpec { path: p, cell_size_m: None, to_metres: 1.0, nodata: None }));
-        }
-        let plan = plan_shards(&items, 2, None);
-        let area =
-            |s: &Vec<(u32, ExemplarSpec)>| s.iter().map(|(_, e)| header_size(e).unwrap()).map(|(w, h)| w * h).sum::<usize>();
-        assert_eq!(area(&plan[0]) + area(&plan[1]), 200 * 200 + 4 * 100 * 100 + 50 * 50);
-        assert!(area(&plan[0]).abs_diff(area(&plan[1])) <= 50 * 50, "{} vs {}", area(&plan[0]), area(&plan[1]));
+    fn shards_balance_weight() {
+        let w = [4000u64, 1000, 1000, 1000, 1000, 250];
+        let plan = plan_shards(&w, 2);
+        let total = |s: &Vec<usize>| s.iter().map(|&i| w[i]).sum::<u64>();
+        assert_eq!(total(&plan[0]) + total(&plan[1]), 8250);
+        assert!(total(&plan[0]).abs_diff(total(&plan[1])) <= 250, "{plan:?}");
+        assert!(plan.iter().all(|s| s.windows(2).all(|p| p[0] < p[1])));
     }
 }

@@ -188,7 +188,7 @@ pub fn load_library(dir: &Path, cfg: &SynthConfig) -> Result<(Shards, Option<f32
     };
     let items: Vec<(u32, ExemplarSpec)> = specs.into_iter().enumerate().map(|(i, s)| (i as u32, s)).collect();
     if let Some(cluster) = &cfg.cluster {
-        let shards = crate::cluster::remote_shards(cluster, &items, cfg.patch, cell)?;
+        let shards = crate::cluster::remote_shards(cluster, &items, cfg.patch, cell, cfg.cache_dir.as_deref())?;
         if shards.iter().all(|s| s.sources().is_empty()) {
             let why: Vec<String> = shards.iter().flat_map(|s| s.skipped()).map(|s| format!("\n  skipped {}", s.reason)).collect();
             return Err(SynthError::NoExemplars(dir.to_path_buf(), why.concat()));

@@ -138,11 +138,12 @@ pub fn scan_library(dir: &Path) -> Result<Vec<ExemplarSpec>> {
         .collect())
 }
 
-/// The library's most common cell size (ties: the smaller), if any is known.
+/// The library's most common cell size (ties: the smaller), if any is known: from
+/// the manifest or `dems.csv`, else what each file declares itself.
 pub fn common_cell_size(specs: &[ExemplarSpec]) -> Option<f32> {
     let mut counts: std::collections::BTreeMap<u32, usize> = Default::default();
     for s in specs {
-        if let Some(c) = s.cell_size_m {
+        if let Some(c) = s.cell_size_m.or_else(|| crate::dem_formats::probe_cell_size(&s.path)) {
             *counts.entry((c * 1000.0).round() as u32).or_default() += 1;
         }
     }

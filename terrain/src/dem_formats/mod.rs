@@ -56,6 +56,50 @@ pub(crate) fn check_size(path: &Path, w: u64, h: u64, max_side: u32) -> Result<(
     Ok(())
 }
 
+/// The cell size a DEM file declares itself (SRTM side, ASCII grid header, GeoTIFF
+/// pixel scale), read without decoding the heights; `None` for PNG or when absent.
+pub fn probe_cell_size(path: &Path) -> Option<f32> {
+    let ext = path.extension()?.to_string_lossy().to_ascii_lowercase();
+    match ext.as_str() {
+        "hgt" => match std::fs::metadata(path).ok()?.len() {
+            n if n == 2 * 1201 * 1201 => Some(90.0),
+            n if n == 2 * 3601 * 3601 => Some(30.0),
+            _ => None,
+        },
+        "asc" => {
+            use std::io::Read;
+            let mut head = vec![0u8; 4096];
+            let n = std::fs::File::open(path).ok()?.read(&mut head).ok()?;
+            let text = String::from_utf8_lossy(&head[..n]).into_owned();
+            // parse the header alone: cut the text before the first data row
+            let header: String = text
+                .lines()
+                .take_while(|l| l.trim_start().starts_with(|c: char| c.is_ascii_alphabetic()))
+                .map(|l| format!("{l}\n"))
+                .collect();
+            let value = |keys: &[&str]| {
+                header.lines().find_map(|l| {
+                    let mut it = l.split_whitespace();
+                    let k = it.next()?;
+                    keys.iter().any(|w| k.eq_ignore_ascii_case(w)).then(|| it.next()?.parse::<f64>().ok()).flatten()
+                })
+            };
+            let cell = value(&["cellsize"])?;
+            let yll = value(&["yllcorner", "yllcenter"]).unwrap_or(0.0);
+            Some(if cell < 0.1 { (cell * 111_320.0 * yll.to_radians().cos()) as f32 } else { cell as f32 })
+        }
+        "tif" | "tiff" => {
+            let f = std::fs::File::open(path).ok()?;
+            let mut dec = tiff::decoder::Decoder::new(std::io::BufReader::new(f)).ok()?;
+            let scale = dec.get_tag_f64_vec(tiff::tags::Tag::ModelPixelScaleTag).ok()?;
+            let c = *scale.first()?;
+            let lat = dec.get_tag_f64_vec(tiff::tags::Tag::ModelTiepointTag).ok().and_then(|t| t.get(4).copied()).unwrap_or(0.0);
+            (c.is_finite() && c > 0.0).then(|| if c < 0.1 { (c * 111_320.0 * lat.to_radians().cos()) as f32 } else { c as f32 })
+        }
+        _ => None,
+    }
+}
+
 /// Reads a DEM by extension. `nodata`, if given, marks voids in addition to what
 /// the file itself declares.
 pub fn read_dem(path: &Path, nodata: Option<f32>, max_side: u32) -> Result<DemRaster> {
@@ -117,12 +161,15 @@ mod tests {
         std::fs::write(d.join("a.asc"), encode_ascii_grid(&g, 25.0)).unwrap();
         let r = read_dem(&d.join("a.asc"), None, 5000).unwrap();
         assert_eq!(r.cell_size_m, Some(25.0));
+        assert_eq!(probe_cell_size(&d.join("a.asc")), Some(25.0));
+        assert_eq!(probe_cell_size(&d.join("N45E006.hgt")), Some(90.0));
         assert!(r.heights.get(3, 4).is_nan());
         assert_eq!(r.heights.get(5, 5), g.get(5, 5));
         // float TIFF with pixel scale; a nodata value given by the caller
         crate::outputs::write_heightfield_with_cell(&d.join("t.tif"), &g, Some(12.5)).unwrap();
         let r = read_dem(&d.join("t.tif"), Some(g.get(0, 0)), 5000).unwrap();
         assert_eq!(r.cell_size_m, Some(12.5));
+        assert_eq!(probe_cell_size(&d.join("t.tif")), Some(12.5));
         assert!(r.heights.get(0, 0).is_nan() && r.heights.get(3, 4).is_nan());
         assert_eq!(r.heights.get(7, 9), g.get(7, 9));
     }
