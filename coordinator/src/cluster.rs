@@ -238,7 +238,7 @@ pub fn remote_exemplars(items: &[(u32, ExemplarSpec)]) -> Result<Vec<RemoteExemp
         .iter()
         .map(|(id, spec)| {
             let bytes = std::fs::read(&spec.path)
-                .map_err(|source| ridgeline_terrain::TerrainError::Read { path: spec.path.clone(), source })?;
+                .map_err(|source| ridgeline_terrain::TerrainError::Read { path: spec.path.clone(), cause: source.into() })?;
             let hash: String = Sha256::digest(&bytes).iter().map(|b| format!("{b:02x}")).collect();
             Ok(RemoteExemplar {
                 wire: v1::ExemplarRef {

@@ -141,7 +141,8 @@ struct PlacementRecord<'a> {
 
 /// Writes the debug outputs of a finished job into `dir` (created if needed).
 pub fn write_debug_outputs(dir: &Path, out: &SynthOutput, sketch: &Grid<u8>, cell: f32) -> ridgeline_terrain::Result<()> {
-    std::fs::create_dir_all(dir).map_err(|source| ridgeline_terrain::TerrainError::Write { path: dir.to_path_buf(), source })?;
+    std::fs::create_dir_all(dir)
+        .map_err(|source| ridgeline_terrain::TerrainError::Write { path: dir.to_path_buf(), cause: source.into() })?;
     write_rgb_png(&dir.join("sketch_features.png"), &sketch_overlay(out, sketch))?;
     write_rgb_png(&dir.join("features_only.png"), &hillshade(&out.features_only, cell))?;
     write_rgb_png(&dir.join("provenance.png"), &provenance_map(out))?;

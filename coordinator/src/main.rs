@@ -201,6 +201,14 @@ fn check_out(p: &Path, allowed: &[&str]) -> Result<()> {
     if !allowed.contains(&ext.as_str()) {
         bail!("{}: unsupported extension (use {})", p.display(), allowed.join(", "));
     }
+    // refuse before the job runs, not after it
+    let dir = p.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    if !dir.is_dir() {
+        bail!("{}: the folder {} does not exist", p.display(), dir.display());
+    }
+    if p.is_dir() {
+        bail!("{}: is a folder", p.display());
+    }
     Ok(())
 }
 

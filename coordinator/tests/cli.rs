@@ -79,6 +79,13 @@ fn missing_and_corrupt_inputs_are_named_and_nothing_is_clobbered() {
     assert!(!ok && err.contains("corrupt.png"), "{err}");
     let (ok, err) = stderr_of(bin().args(["synth", "--sketch", "s.png", "--exemplars", ".", "--out"]).arg(d.join("t.jpg")));
     assert!(!ok && err.contains("t.jpg") && err.contains("unsupported"), "{err}");
+    let (ok, err) =
+        stderr_of(bin().args(["synth", "--sketch", "s.png", "--exemplars", ".", "--out"]).arg(d.join("no/such/dir/t.tif")));
+    assert!(!ok && err.contains("does not exist"), "{err}");
+    // an io error is reported once, not repeated by the error chain
+    let (_, err) =
+        stderr_of(bin().args(["synth", "--sketch"]).arg(d.join("nope.png")).args(["--exemplars", "."]).arg("--out").arg(&out));
+    assert_eq!(err.matches("No such file").count(), 1, "{err}");
     assert_eq!(std::fs::read(&out).unwrap(), b"previous terrain", "a failed job leaves the old output alone");
     let leftovers: Vec<_> = std::fs::read_dir(&d)
         .unwrap()

@@ -19,7 +19,7 @@ fn decode_err(path: &Path, e: impl std::fmt::Display) -> TerrainError {
 }
 
 fn read_bytes(path: &Path) -> Result<Vec<u8>> {
-    std::fs::read(path).map_err(|source| TerrainError::Read { path: path.to_path_buf(), source })
+    std::fs::read(path).map_err(|source| TerrainError::Read { path: path.to_path_buf(), cause: source.into() })
 }
 
 /// Decodes image bytes (`path` names them in errors). The size is checked from the
@@ -69,7 +69,7 @@ pub fn read_sketch(path: &Path, max_side: u32) -> Result<Grid<u8>> {
 
 /// Writes `bytes` to `path` atomically (temporary file in the same folder, fsync, rename).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let werr = |source| TerrainError::Write { path: path.to_path_buf(), source };
+    let werr = |source: std::io::Error| TerrainError::Write { path: path.to_path_buf(), cause: source.into() };
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),

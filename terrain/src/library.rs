@@ -58,13 +58,14 @@ struct Manifest {
 /// (relative to the manifest), optional `cell_size_m`, `unit` (metres|feet) and
 /// `nodata`. Every listed file must exist.
 pub fn read_manifest(path: &Path) -> Result<Vec<ExemplarSpec>> {
-    let text = std::fs::read_to_string(path).map_err(|source| TerrainError::Read { path: path.to_path_buf(), source })?;
+    let text =
+        std::fs::read_to_string(path).map_err(|source| TerrainError::Read { path: path.to_path_buf(), cause: source.into() })?;
     let bad = |m: String| TerrainError::Invalid { path: path.to_path_buf(), message: m };
     let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
     let m: Manifest = match ext.as_str() {
         "toml" => toml::from_str(&text).map_err(|e| bad(format!("bad manifest: {e}")))?,
         "json" => serde_json::from_str(&text).map_err(|e| bad(format!("bad manifest: {e}")))?,
-        _ => return Err(bad("a manifest must be .toml or .json".into())),
+        _ => return Err(bad("not an exemplar library: give a folder of DEMs, a DEM file or a manifest (.toml or .json)".into())),
     };
     let base = path.parent().unwrap_or(Path::new("."));
     let mut out = Vec::new();
@@ -87,22 +88,27 @@ pub fn read_manifest(path: &Path) -> Result<Vec<ExemplarSpec>> {
     Ok(out)
 }
 
-/// The exemplars of a library: a manifest file (`.toml`/`.json`), or a folder of
+/// The exemplars of a library: a single DEM file, a manifest file (`.toml`/`.json`), or a folder of
 /// DEMs (every `.png`, `.tif`, `.tiff`, `.hgt`, `.asc`, sorted by name) with cell size
 /// and unit from a `dems.csv` beside them where it lists the file (otherwise metres
 /// and the file's own cell size, if it has one).
 pub fn scan_library(dir: &Path) -> Result<Vec<ExemplarSpec>> {
     if dir.is_file() {
+        if crate::dem_formats::is_dem_path(dir) {
+            // a single DEM is a library of one
+            return Ok(vec![ExemplarSpec { path: dir.to_path_buf(), cell_size_m: None, to_metres: 1.0, nodata: None }]);
+        }
         return read_manifest(dir);
     }
-    let rd = std::fs::read_dir(dir).map_err(|source| TerrainError::Read { path: dir.to_path_buf(), source })?;
+    let rd = std::fs::read_dir(dir).map_err(|source| TerrainError::Read { path: dir.to_path_buf(), cause: source.into() })?;
     let mut files: Vec<PathBuf> =
         rd.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.is_file() && crate::dem_formats::is_dem_path(p)).collect();
     files.sort();
     let csv_path = dir.join("dems.csv");
     let mut meta: std::collections::BTreeMap<String, (Option<f32>, f32)> = Default::default();
     if csv_path.exists() {
-        let text = std::fs::read_to_string(&csv_path).map_err(|source| TerrainError::Read { path: csv_path.clone(), source })?;
+        let text = std::fs::read_to_string(&csv_path)
+            .map_err(|source| TerrainError::Read { path: csv_path.clone(), cause: source.into() })?;
         let mut lines = text.lines();
         let header: Vec<String> = lines.next().unwrap_or("").split(',').map(|s| s.trim().to_string()).collect();
         let col = |name: &str| header.iter().position(|h| h == name);

@@ -120,7 +120,7 @@ pub fn write_heightfield_with_cell(path: &Path, h: &Heightfield, cell: Option<f3
 
 fn read_sidecar(path: &Path) -> Result<Png16Sidecar> {
     let sp = path.with_extension("json");
-    let bytes = std::fs::read(&sp).map_err(|source| TerrainError::Read { path: sp.clone(), source })?;
+    let bytes = std::fs::read(&sp).map_err(|source| TerrainError::Read { path: sp.clone(), cause: source.into() })?;
     serde_json::from_slice(&bytes).map_err(|e| TerrainError::Invalid { path: sp, message: format!("bad sidecar: {e}") })
 }
 
@@ -128,7 +128,8 @@ fn read_sidecar(path: &Path) -> Result<Png16Sidecar> {
 pub fn read_heightfield(path: &Path, max_side: u32) -> Result<Heightfield> {
     match ext_of(path).as_str() {
         "tif" | "tiff" => {
-            let bytes = std::fs::read(path).map_err(|source| TerrainError::Read { path: path.to_path_buf(), source })?;
+            let bytes =
+                std::fs::read(path).map_err(|source| TerrainError::Read { path: path.to_path_buf(), cause: source.into() })?;
             Ok(parse_tiff(path, &bytes, max_side)?.heights)
         }
         "png" => {
@@ -138,7 +139,8 @@ pub fn read_heightfield(path: &Path, max_side: u32) -> Result<Heightfield> {
         }
         "r16" => {
             let side = read_sidecar(path)?;
-            let bytes = std::fs::read(path).map_err(|source| TerrainError::Read { path: path.to_path_buf(), source })?;
+            let bytes =
+                std::fs::read(path).map_err(|source| TerrainError::Read { path: path.to_path_buf(), cause: source.into() })?;
             if bytes.len() != side.width * side.height * 2 {
                 return Err(TerrainError::Invalid {
                     path: path.to_path_buf(),
@@ -233,7 +235,8 @@ pub fn write_tiles(out: &Path, h: &Heightfield, n: usize, cell: Option<f32>) -> 
 
 /// Reassembles a terrain from a tile index written by [`write_tiles`].
 pub fn read_tiles(index_path: &Path, max_side: u32) -> Result<Heightfield> {
-    let bytes = std::fs::read(index_path).map_err(|source| TerrainError::Read { path: index_path.to_path_buf(), source })?;
+    let bytes = std::fs::read(index_path)
+        .map_err(|source| TerrainError::Read { path: index_path.to_path_buf(), cause: source.into() })?;
     let idx: TileIndex = serde_json::from_slice(&bytes)
         .map_err(|e| TerrainError::Invalid { path: index_path.to_path_buf(), message: format!("bad tile index: {e}") })?;
     crate::dem_formats::check_size(index_path, idx.width as u64, idx.height as u64, max_side)?;

@@ -93,7 +93,8 @@ pub fn load_source(id: u32, spec: &ExemplarSpec, cfg: &ShardConfig) -> Result<So
     let mut cache_hit = false;
     let graphs = match &cfg.cache {
         Some(cache) => {
-            let bytes = std::fs::read(&spec.path).map_err(|source| TerrainError::Read { path: spec.path.clone(), source })?;
+            let bytes = std::fs::read(&spec.path)
+                .map_err(|source| TerrainError::Read { path: spec.path.clone(), cause: source.into() })?;
             let key = FeatureCache::key(
                 &bytes,
                 &(params, spec.to_metres, spec.cell_size_m, cfg.out_cell, heights.width, heights.height),

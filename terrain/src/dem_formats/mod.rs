@@ -104,7 +104,7 @@ pub fn probe_cell_size(path: &Path) -> Option<f32> {
 /// the file itself declares.
 pub fn read_dem(path: &Path, nodata: Option<f32>, max_side: u32) -> Result<DemRaster> {
     let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
-    let read = || std::fs::read(path).map_err(|source| TerrainError::Read { path: path.to_path_buf(), source });
+    let read = || std::fs::read(path).map_err(|source| TerrainError::Read { path: path.to_path_buf(), cause: source.into() });
     let mut r = match ext.as_str() {
         "png" => DemRaster { heights: crate::io::read_dem_png(path, max_side)?, cell_size_m: None },
         "tif" | "tiff" => parse_tiff(path, &read()?, max_side)?,
