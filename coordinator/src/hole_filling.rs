@@ -186,8 +186,36 @@ pub fn fill_holes(
         g.sort_by(f32::total_cmp);
         g.get(g.len() / 2).copied().unwrap_or(1.0).max(1e-3)
     };
+    // Only windows holding both filled and empty cells are on the front. Counting filled
+    // cells per lattice block first lets the initial pass scan just those windows, so a
+    // huge, mostly empty output does not cost a full window scan per lattice point.
+    let (bw, bh) = (w.div_ceil(step), h.div_ceil(step));
+    let mut block_filled = vec![0u32; bw * bh];
+    for y in 0..h {
+        let row = &canvas.heights.data[y * w..(y + 1) * w];
+        for (x, v) in row.iter().enumerate() {
+            if !v.is_nan() {
+                block_filled[(y / step) * bw + x / step] += 1;
+            }
+        }
+    }
+    let block_full = |bx: usize, by: usize| {
+        let (cw, ch) = (step.min(w - bx * step), step.min(h - by * step));
+        block_filled[by * bw + bx] as usize == cw * ch
+    };
+    let reach = p.div_ceil(2).div_ceil(step) + 1;
     for k in 0..n_lat {
-        front.update(canvas, k, slope_ref);
+        let (lx, ly) = (front.xs[k % front.xs.len()] / step, front.ys[k / front.xs.len()] / step);
+        let (mut any_filled, mut any_empty) = (false, false);
+        for by in ly.saturating_sub(reach)..(ly + reach + 1).min(bh) {
+            for bx in lx.saturating_sub(reach)..(lx + reach + 1).min(bw) {
+                any_filled |= block_filled[by * bw + bx] > 0;
+                any_empty |= !block_full(bx, by);
+            }
+        }
+        if any_filled && any_empty {
+            front.update(canvas, k, slope_ref);
+        }
     }
     let max_fills = 16 * n_lat + 16;
     while let Some((_, Reverse(k), ver)) = front.heap.pop() {

@@ -85,6 +85,8 @@ pub struct Canvas {
     pub patch: usize,
     /// Number of empty cells left.
     pub empty: usize,
+    /// Sum of the filled heights (kept up to date by `merge`).
+    filled_sum: f64,
 }
 
 /// Statistics of one merge.
@@ -104,6 +106,7 @@ impl Canvas {
             placements: Vec::new(),
             patch,
             empty: width * height,
+            filled_sum: 0.0,
         }
     }
 
@@ -162,14 +165,8 @@ impl Canvas {
 
     /// Mean height of the filled cells, `None` when nothing is filled.
     pub fn filled_mean(&self) -> Option<f32> {
-        let (mut s, mut n) = (0.0f64, 0usize);
-        for &v in &self.heights.data {
-            if !v.is_nan() {
-                s += v as f64;
-                n += 1;
-            }
-        }
-        (n > 0).then(|| (s / n as f64) as f32)
+        let n = self.heights.data.len() - self.empty;
+        (n > 0).then(|| (self.filled_sum / n as f64) as f32)
     }
 
     /// Mean of `old - new` over the overlap (0 without one).
@@ -380,9 +377,13 @@ impl Canvas {
                 let e = (j + oy) * ew + (i + ox);
                 if unknown[e] {
                     let (gx, gy) = (win.x0 + i, win.y0 + j);
-                    if self.heights.get(gx, gy).is_nan() {
+                    let before = self.heights.get(gx, gy);
+                    if before.is_nan() {
                         self.empty -= 1;
+                    } else {
+                        self.filled_sum -= before as f64;
                     }
+                    self.filled_sum += guess[e] as f64;
                     self.heights.set(gx, gy, guess[e]);
                     self.provenance.set(gx, gy, pid);
                     new_cells += 1;
