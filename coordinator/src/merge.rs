@@ -62,6 +62,15 @@ impl Win {
     }
 }
 
+/// The optimal seam between the output's `old` values and a `new` patch over a
+/// window, after removing the patch's mean offset over the overlap (which the
+/// gradient-domain merge absorbs anyway).
+pub fn seam_for(win: &Win, old: &[f32], new: &[f32], force: &[Force]) -> Seam {
+    let mu = Canvas::mean_offset(old, new);
+    let shifted: Vec<f32> = new.iter().map(|v| v + mu).collect();
+    crate::graph_cut::find_seam(win.w, win.h, old, &shifted, force)
+}
+
 /// One placed patch.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Placement {
@@ -191,10 +200,8 @@ impl Canvas {
         let win = self.window(cx, cy);
         let old = self.old_values(&win);
         let new = win.crop(pixels);
-        let mu = Self::mean_offset(&old, &new);
-        let shifted: Vec<f32> = new.iter().map(|v| v + mu).collect();
         let force = self.forces(&win, &old, keep_radius);
-        let seam = crate::graph_cut::find_seam(win.w, win.h, &old, &shifted, &force);
+        let seam = seam_for(&win, &old, &new, &force);
         self.merge(&win, &new, &seam, placement)
     }
 

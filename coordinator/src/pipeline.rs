@@ -187,20 +187,18 @@ pub fn load_library(dir: &Path, cfg: &SynthConfig) -> Result<(Shards, Option<f32
         cache: cfg.cache_dir.clone().map(FeatureCache::new),
     };
     let items: Vec<(u32, ExemplarSpec)> = specs.into_iter().enumerate().map(|(i, s)| (i as u32, s)).collect();
-    if let Some(cluster) = &cfg.cluster {
-        let shards = crate::cluster::remote_shards(cluster, &items, cfg.patch, cell, cfg.cache_dir.as_deref())?;
-        if shards.iter().all(|s| s.sources().is_empty()) {
-            let why: Vec<String> = shards.iter().flat_map(|s| s.skipped()).map(|s| format!("\n  skipped {}", s.reason)).collect();
-            return Err(SynthError::NoExemplars(dir.to_path_buf(), why.concat()));
+    let shards: Shards = match &cfg.cluster {
+        Some(cluster) => crate::cluster::remote_shards(cluster, &items, cfg.patch, cell, cfg.cache_dir.as_deref())?,
+        None => {
+            let n = cfg.shards.clamp(1, items.len());
+            (0..n)
+                .map(|s| {
+                    let part: Vec<(u32, ExemplarSpec)> = items.iter().filter(|(i, _)| *i as usize % n == s).cloned().collect();
+                    Arc::new(InProcessShard::load(&part, &shard_cfg)) as Arc<dyn ShardScorer>
+                })
+                .collect()
         }
-        return Ok((shards, cell));
-    }
-    let n = cfg.shards.clamp(1, items.len());
-    let mut shards: Shards = Vec::new();
-    for s in 0..n {
-        let part: Vec<(u32, ExemplarSpec)> = items.iter().filter(|(i, _)| *i as usize % n == s).cloned().collect();
-        shards.push(Arc::new(InProcessShard::load(&part, &shard_cfg)));
-    }
+    };
     if shards.iter().all(|s| s.sources().is_empty()) {
         let why: Vec<String> = shards.iter().flat_map(|s| s.skipped()).map(|s| format!("\n  skipped {}", s.reason)).collect();
         return Err(SynthError::NoExemplars(dir.to_path_buf(), why.concat()));

@@ -15,8 +15,8 @@
 //! most [`SEED_JITTER`], enough to pick among near-equal candidates differently per
 //! seed and never more.
 
-use crate::graph_cut::{find_seam, Force, Seam};
-use crate::merge::{Canvas, Placement, Win};
+use crate::graph_cut::{Force, Seam};
+use crate::merge::{seam_for, Canvas, Placement, Win};
 use rayon::prelude::*;
 use ridgeline_terrain::costs::{noise_cost, noise_variances, overlap_cost, ALPHA_N, ALPHA_O};
 use ridgeline_terrain::shard::ScoredCandidate;
@@ -111,9 +111,7 @@ pub fn graph_cut_choice(
         .par_iter()
         .map(|&(total, index)| {
             let new = win.crop(&pixels(index));
-            let mu = Canvas::mean_offset(old, &new);
-            let shifted: Vec<f32> = new.iter().map(|v| v + mu).collect();
-            let seam = find_seam(win.w, win.h, old, &shifted, force);
+            let seam = seam_for(win, old, &new, force);
             let norm = if seam.edges > 0 { seam.cost as f32 / (seam.edges as f32 * relief) } else { 0.0 };
             Choice { index, seam, new, total: total + norm }
         })
