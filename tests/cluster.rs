@@ -24,7 +24,7 @@ fn job(data: &std::path::Path, cache: &std::path::Path, cluster: Option<Arc<Clus
     // small blocks: many round trips, so a kill lands mid-job
     let cfg = SynthConfig { cluster, block: 2, cache_dir: Some(cache.to_path_buf()), ..Default::default() };
     run_job(&data.join("sketches/small-range-512.png"), &data.join("dems"), &cfg)
-        .map(|o| encode_tiff_f32(&o.terrain).unwrap())
+        .map(|o| encode_tiff_f32(o.terrain()).unwrap())
         .map_err(|e| e.to_string())
 }
 
@@ -160,8 +160,17 @@ fn malformed_requests_get_errors_and_the_worker_keeps_serving() {
         let req = v1::ScoreRequest { shard_key: "nope".into(), block_index: 0, k: 5, queries: vec![] };
         let mut replies = c.score(tokio_stream::iter(vec![req])).await.unwrap().into_inner();
         assert_eq!(replies.message().await.unwrap_err().code(), tonic::Code::NotFound);
-        let e = c.featureless_pool(v1::PoolRequest { shard_key: "nope".into() }).await.unwrap_err();
-        assert_eq!(e.code(), tonic::Code::NotFound);
+        let fill = |version: u32, k: u32| v1::FillRequest {
+            fill_version: version,
+            shard_key: "nope".into(),
+            k,
+            seed: 0,
+            targets: vec![v1::FillTarget { id: 0, relief: 1.0, ..Default::default() }],
+        };
+        let e = c.score_fill(fill(ridgeline_proto::FILL_VERSION, 5)).await.unwrap_err();
+        assert_eq!(e.code(), tonic::Code::NotFound, "fill scoring on a shard that is not loaded");
+        let e = c.score_fill(fill(ridgeline_proto::FILL_VERSION + 1, 5)).await.unwrap_err();
+        assert_eq!(e.code(), tonic::Code::InvalidArgument, "a fill message of another layout version");
         // still serving
         let cap = c.capabilities(v1::CapabilitiesRequest {}).await.unwrap().into_inner();
         assert_eq!(cap.protocol_version, ridgeline_proto::PROTOCOL_VERSION);

@@ -51,7 +51,7 @@ fn voids_in_exemplars_never_reach_the_output() {
     sketch(&sk, true);
     let cfg = SynthConfig { patch: 32, cache_dir: Some(d.join("cache")), ..Default::default() };
     let out = run_job(&sk, &lib, &cfg).expect("synthesis");
-    assert!(out.terrain.data.iter().all(|v| v.is_finite()), "a void was copied into the output");
+    assert!(out.terrain().data.iter().all(|v| v.is_finite()), "a void was copied into the output");
     assert!(out.report.ridge_patches > 0 && out.report.feature_patches_placed > 0);
 }
 
@@ -75,7 +75,7 @@ fn a_ridge_with_no_ridge_in_the_library_falls_back_to_inverted_valleys() {
     assert_eq!(out.report.exemplars[0].feature_nodes[0], 0, "the library has no ridge candidates");
     assert!(!out.report.fallbacks.is_empty(), "the fallback is reported");
     assert!(out.report.fallbacks[0].contains("ridge"), "{:?}", out.report.fallbacks);
-    assert!(out.terrain.data.iter().all(|v| v.is_finite()));
-    let a = adherence(&out.terrain, out.sketch.graph(FeatureKind::Ridge), FeatureKind::Ridge, 8.0, 4, 8);
+    assert!(out.terrain().data.iter().all(|v| v.is_finite()));
+    let a = adherence(out.terrain(), out.sketch.graph(FeatureKind::Ridge), FeatureKind::Ridge, 8.0, 4, 8);
     assert!(a.fraction() >= 0.8, "inverted valleys make a ridge: {} of {}", a.matching, a.sampled);
 }

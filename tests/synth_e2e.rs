@@ -1,7 +1,7 @@
 //! End-to-end synthesis on the shared real data (skipped with a message where
 //! ../shared/data is absent).
 
-use ridgeline::merge::{Canvas, Placement};
+use ridgeline::canvas::{Canvas, Placement};
 use ridgeline::pipeline::{run_job, SynthConfig, SynthOutput};
 use ridgeline::quality::{adherence, max_gradient_jump};
 use ridgeline_terrain::io::encode_tiff_f32;
@@ -33,12 +33,12 @@ fn cold_run() -> Option<&'static Cold> {
 fn full_run_fills_every_pixel_and_follows_the_sketch() {
     let Some(cold) = cold_run() else { return };
     let out = &cold.out;
-    assert_eq!((out.terrain.width, out.terrain.height), (512, 512));
-    assert!(out.terrain.data.iter().all(|v| v.is_finite()), "every pixel filled with a finite height");
+    assert_eq!((out.terrain().width, out.terrain().height), (512, 512));
+    assert!(out.terrain().data.iter().all(|v| v.is_finite()), "every pixel filled with a finite height");
     assert_eq!(out.report.exemplars.len(), 16, "all 16 DEMs used");
     assert!(out.report.ridge_patches > 0 && out.report.valley_patches > 0);
     for kind in FeatureKind::BOTH {
-        let a = adherence(&out.terrain, out.sketch.graph(kind), kind, 16.0, 4, 8);
+        let a = adherence(out.terrain(), out.sketch.graph(kind), kind, 16.0, 4, 8);
         assert!(a.sampled >= 50, "{kind:?}: only {} samples", a.sampled);
         assert!(
             a.fraction() >= 0.9,
@@ -57,8 +57,8 @@ fn same_bytes_for_one_and_two_threads_and_with_a_warm_cache() {
     let cfg = SynthConfig { threads: 1, cache_dir: Some(cold.cache.clone()), ..Default::default() };
     let warm = run_job(&data.join("sketches/small-range-512.png"), &data.join("dems"), &cfg).expect("synthesis");
     assert_eq!(warm.report.cache_hits, 16, "the second run reads every exemplar's features from the cache");
-    let a = encode_tiff_f32(&cold.out.terrain).unwrap();
-    let b = encode_tiff_f32(&warm.terrain).unwrap();
+    let a = encode_tiff_f32(cold.out.terrain()).unwrap();
+    let b = encode_tiff_f32(warm.terrain()).unwrap();
     assert!(a == b, "outputs differ between --threads 2 (cold cache) and --threads 1 (warm cache)");
 }
 
@@ -69,8 +69,8 @@ fn a_different_seed_gives_a_different_terrain() {
     let cfg = SynthConfig { seed: 7, cache_dir: Some(cold.cache.clone()), ..Default::default() };
     let other = run_job(&data.join("sketches/small-range-512.png"), &data.join("dems"), &cfg).expect("synthesis");
     // not a different rounding: a visibly different terrain
-    let changed = other.terrain.data.iter().zip(&cold.out.terrain.data).filter(|(a, b)| (*a - *b).abs() > 1.0).count();
-    let frac = changed as f64 / other.terrain.data.len() as f64;
+    let changed = other.terrain().data.iter().zip(&cold.out.terrain().data).filter(|(a, b)| (*a - *b).abs() > 1.0).count();
+    let frac = changed as f64 / other.terrain().data.len() as f64;
     eprintln!("seed 7 changes {:.0}% of the cells of seed 0 by more than 1 m", frac * 100.0);
     assert!(frac >= 0.2, "only {:.1}% of cells changed", frac * 100.0);
 }
@@ -122,5 +122,5 @@ fn a_sketch_without_strokes_is_filled_by_hole_filling_alone() {
     let out = run_job(&sketch_path, &data.join("dems"), &cfg).expect("synthesis");
     assert_eq!(out.report.ridge_patches + out.report.valley_patches, 0);
     assert!(out.report.hole_fills > 0);
-    assert!(out.terrain.data.iter().all(|v| v.is_finite()));
+    assert!(out.terrain().data.iter().all(|v| v.is_finite()));
 }

@@ -144,7 +144,9 @@ pub fn write_debug_outputs(dir: &Path, out: &SynthOutput, sketch: &Grid<u8>, cel
     std::fs::create_dir_all(dir)
         .map_err(|source| ridgeline_terrain::TerrainError::Write { path: dir.to_path_buf(), cause: source.into() })?;
     write_rgb_png(&dir.join("sketch_features.png"), &sketch_overlay(out, sketch))?;
-    write_rgb_png(&dir.join("features_only.png"), &hillshade(&out.features_only, cell))?;
+    if let Some(f) = &out.features_only {
+        write_rgb_png(&dir.join("features_only.png"), &hillshade(f, cell))?;
+    }
     write_rgb_png(&dir.join("provenance.png"), &provenance_map(out))?;
     let recs: Vec<PlacementRecord> = out
         .canvas

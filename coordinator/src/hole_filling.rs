@@ -2,7 +2,38 @@
 //! feature patches, empty regions are filled with featureless patches in 6 exact
 //! variants, most-constrained location first, until no cell is empty.
 //!
-//! Target selection keeps the fill front in a priority queue over a lattice of
+//! **Schedule: tiles in colour phases.** The output is cut into square tiles of
+//! [`TILE_PATCHES`] patches a side, coloured like a 2 x 2 checkerboard. A round runs
+//! the four colours one after another; in a phase every tile of that colour works on
+//! its own copy of its surroundings (a sub-canvas: the tile grown by half a patch plus
+//! two cells, which holds every cell its windows, seams and Poisson rings touch) with
+//! its own priority-ordered fill front over the lattice points inside the tile, until
+//! its front is exhausted; then the tiles are committed back in tile order. Two tiles
+//! of one colour are a whole tile apart (≥ 2 patches), so what one writes never
+//! reaches what the other reads; the repetition penalty and the coherence bonus see
+//! the placements made before the phase plus the tile's own. Rounds repeat until no
+//! cell is empty (normally one or two; a sketch with no strokes spreads from a seed
+//! patch tile by tile). Why this schedule: each tile's result depends only on the
+//! canvas at the start of its phase, never on which thread ran it or when, so the
+//! bytes are the same for any thread count, with no locking and no speculation; tiles
+//! of ≥ 2 patches keep most fills' neighbourhoods inside one front, where the order is
+//! Crause's. What changes against Crause's single front: the priority order holds
+//! within a tile, not across tiles — a tile of an earlier colour fills its holes before
+//! a higher-priority hole in a later-colour tile, and a hole that spans tiles is
+//! filled from both sides in successive phases (the graph cut and the gradient-domain
+//! merge join them like any overlap).
+//!
+//! **Scoring where the pool lives.** In each *wave* every active tile of the phase
+//! pops its best target and describes it as a [`FillQuery`] (the known cells of the
+//! window, sampled every third cell each way, its relief, noise, coherence weights and
+//! the source regions the repetition rule avoids there); the whole wave goes to every
+//! shard at once (`ShardScorer::score_fill`: in-process or over gRPC, one call per
+//! shard), and each shard returns its five best per target. The coordinator merges the
+//! best-sets in the total order (cost, source, position, variant), runs the graph cut
+//! on the five cheapest and merges the winner. Waves only batch the calls: each tile
+//! pops its targets in its own order, so they do not change the result.
+//!
+//! Target selection keeps each tile's front in a priority queue over a lattice of
 //! candidate centres (spacing patch/4) and, after each merge, recomputes only the
 //! lattice points whose windows the merge touched (Crause's large terrain spent 1841 s
 //! of 3271 s rescanning the boundary, table 10.9). A lattice point is on the front
@@ -10,27 +41,18 @@
 //! (Criminisi et al. 2004): confidence is the filled fraction of the window, data the
 //! mean slope along the front relative to the output's typical slope, so structures
 //! that run into a hole are continued first.
-//!
-//! Matching: round 1 scores every featureless candidate in every variant by overlap
-//! cost (mean offset removed, over every third cell of the overlap each way), noise variance
-//! and a coherence bonus for the exemplars the window already shows ([`BETA_C`]); the
-//! five cheapest go through the graph cut as in round 2; the merge is the same
-//! gradient-domain merge as for feature patches.
 
-use crate::merge::{Canvas, Placement};
-use crate::selection::{finite_std, graph_cut_choice, jitter, output_patch, REPEAT_PENALTY, SEED_JITTER};
+use crate::canvas::{Canvas, Placement, Rect};
+use crate::window_scoring::{cut_and_merge, Target, GRAPH_CUT_SET};
 use rayon::prelude::*;
-use ridgeline_terrain::costs::{noise_cost, noise_variances, ALPHA_N, ALPHA_O};
-use ridgeline_terrain::patch_geometry::{Variant, FEATURELESS_VARIANTS};
-use ridgeline_terrain::shard::FeaturelessCandidate;
+use ridgeline_terrain::shard::{FillCandidate, FillQuery, ShardError, ShardScorer};
 use std::cmp::Reverse;
-use std::collections::BinaryHeap;
+use std::collections::{BTreeMap, BinaryHeap};
+use std::sync::Arc;
+use std::time::Instant;
 
-/// Weight of the coherence bonus: a candidate from an exemplar that already makes up
-/// a fraction f of the window's filled cells costs `BETA_C * f` less, so a hole is
-/// continued in the terrain style around it (real neighbouring terrain shares its
-/// geology) instead of a patchwork of every source in the library.
-pub const BETA_C: f32 = 0.3;
+/// Side of a hole-filling tile, in patches (at least 2: see the module header).
+pub const TILE_PATCHES: usize = 4;
 
 /// Why hole filling could not finish.
 #[derive(Debug, thiserror::Error)]
@@ -39,6 +61,8 @@ pub enum FillError {
     NoCandidates,
     #[error("hole filling stalled with {0} empty cells")]
     Stalled(usize),
+    #[error("worker: {0}")]
+    Shard(#[from] ShardError),
 }
 
 /// Counts of one hole-filling run.
@@ -47,45 +71,13 @@ pub struct FillStats {
     pub fills: usize,
     pub cells_filled: usize,
     pub cg_iterations: usize,
-    /// Seconds spent choosing targets, scoring candidates, cutting seams, merging.
-    pub target_s: f64,
+    pub rounds: usize,
+    pub waves: usize,
+    /// Wall seconds spent scoring on the shards.
     pub score_s: f64,
-    pub cut_s: f64,
-    pub merge_s: f64,
-}
-
-/// Index maps of the 6 variants: output patch cell → stored candidate cell, rotating
-/// about the patch's geometric centre so every map is an exact permutation.
-pub fn variant_maps(p: usize) -> Vec<Vec<u32>> {
-    let c = (p as f32 - 1.0) / 2.0;
-    FEATURELESS_VARIANTS
-        .iter()
-        .map(|v| {
-            (0..p * p)
-                .map(|k| {
-                    let (i, j) = ((k % p) as f32 - c, (k / p) as f32 - c);
-                    let (sx, sy) = v.inverse(i, j);
-                    let (si, sj) = ((c + sx).round() as usize, (c + sy).round() as usize);
-                    (sj.min(p - 1) * p + si.min(p - 1)) as u32
-                })
-                .collect()
-        })
-        .collect()
-}
-
-struct Front {
-    xs: Vec<usize>,
-    ys: Vec<usize>,
-    version: Vec<u32>,
-    heap: BinaryHeap<(u32, Reverse<u32>, u32)>,
-}
-
-fn lattice(n: usize, step: usize) -> Vec<usize> {
-    let mut v: Vec<usize> = (0..n).step_by(step.max(1)).collect();
-    if *v.last().unwrap_or(&0) != n - 1 {
-        v.push(n - 1);
-    }
-    v
+    /// Seconds spent choosing targets, cutting seams and merging, summed over threads.
+    pub target_s: f64,
+    pub cut_merge_s: f64,
 }
 
 /// Mean slope magnitude along the fill front inside the window, and the counts.
@@ -120,218 +112,396 @@ fn window_state(canvas: &Canvas, cx: usize, cy: usize) -> (usize, usize, f32) {
     (filled, empty, if gn > 0 { gsum / gn as f32 } else { 0.0 })
 }
 
-impl Front {
-    fn update(&mut self, canvas: &Canvas, k: usize, slope_ref: f32) {
+/// Lattice coordinates (spacing `step`, plus the last cell) of `0..n` inside `lo..hi`.
+fn lattice(n: usize, step: usize, lo: usize, hi: usize) -> Vec<usize> {
+    let mut v: Vec<usize> = (0..n).step_by(step.max(1)).collect();
+    if *v.last().unwrap_or(&0) != n - 1 {
+        v.push(n - 1);
+    }
+    v.retain(|&x| x >= lo && x < hi);
+    v
+}
+
+/// Output-wide settings of a fill run.
+struct FillEnv {
+    slope_ref: f32,
+    median_relief: f32,
+}
+
+/// One tile's fill front and its sub-canvas.
+struct TileFill {
+    sub: Canvas,
+    xs: Vec<usize>,
+    ys: Vec<usize>,
+    version: Vec<u32>,
+    heap: BinaryHeap<(u32, Reverse<u32>, u32)>,
+    pending: Option<(Target, f32)>,
+    fills: usize,
+    max_fills: usize,
+    initial_empty: usize,
+    cg_iterations: usize,
+    target_s: f64,
+    cut_merge_s: f64,
+}
+
+impl TileFill {
+    fn new(sub: Canvas, core: Rect, env: &FillEnv) -> TileFill {
+        let t0 = Instant::now();
+        let p = sub.patch;
+        let step = (p / 4).max(1);
+        let (w, h) = sub.full_size();
+        let xs = lattice(w, step, core.x0, core.x1);
+        let ys = lattice(h, step, core.y0, core.y1);
+        let n = xs.len() * ys.len();
+        let initial_empty = sub.empty;
+        let mut t = TileFill {
+            sub,
+            xs,
+            ys,
+            version: vec![0; n],
+            heap: BinaryHeap::new(),
+            pending: None,
+            fills: 0,
+            max_fills: 16 * n + 16,
+            initial_empty,
+            cg_iterations: 0,
+            target_s: 0.0,
+            cut_merge_s: 0.0,
+        };
+        if initial_empty == 0 || initial_empty == t.sub.heights.data.len() {
+            return t;
+        }
+        // Only windows holding both filled and empty cells are on the front. Counting
+        // filled cells per block of the sub-canvas first lets the initial pass scan
+        // just the windows near both, so a mostly full or mostly empty tile is cheap.
+        let (sw, sh) = (t.sub.heights.width, t.sub.heights.height);
+        let (bw, bh) = (sw.div_ceil(step), sh.div_ceil(step));
+        let mut block_filled = vec![0u32; bw * bh];
+        for y in 0..sh {
+            for (x, v) in t.sub.heights.data[y * sw..(y + 1) * sw].iter().enumerate() {
+                if !v.is_nan() {
+                    block_filled[(y / step) * bw + x / step] += 1;
+                }
+            }
+        }
+        let block_full =
+            |bx: usize, by: usize| block_filled[by * bw + bx] as usize == step.min(sw - bx * step) * step.min(sh - by * step);
+        let reach = p.div_ceil(2).div_ceil(step) + 1;
+        let origin = t.sub.origin();
+        for k in 0..n {
+            let (x, y) = (t.xs[k % t.xs.len()] - origin.0, t.ys[k / t.xs.len()] - origin.1);
+            let (lx, ly) = (x / step, y / step);
+            let (mut any_filled, mut any_empty) = (false, false);
+            for by in ly.saturating_sub(reach)..(ly + reach + 1).min(bh) {
+                for bx in lx.saturating_sub(reach)..(lx + reach + 1).min(bw) {
+                    any_filled |= block_filled[by * bw + bx] > 0;
+                    any_empty |= !block_full(bx, by);
+                }
+            }
+            if any_filled && any_empty {
+                t.update(k, env);
+            }
+        }
+        t.target_s += t0.elapsed().as_secs_f64();
+        t
+    }
+
+    fn centre(&self, k: usize) -> (usize, usize) {
+        (self.xs[k % self.xs.len()], self.ys[k / self.xs.len()])
+    }
+
+    fn update(&mut self, k: usize, env: &FillEnv) {
         self.version[k] += 1;
-        let (x, y) = (self.xs[k % self.xs.len()], self.ys[k / self.xs.len()]);
-        let (filled, empty, slope) = window_state(canvas, x, y);
+        let (x, y) = self.centre(k);
+        let (filled, empty, slope) = window_state(&self.sub, x, y);
         if filled == 0 || empty == 0 {
             return;
         }
         let conf = filled as f32 / (filled + empty) as f32;
-        let data = (slope / slope_ref).min(1.0);
+        let data = (slope / env.slope_ref).min(1.0);
         // windows centred on an empty cell (on the front itself) come first: they fill
         // about half a patch each; windows with a filled centre only mop up slivers
-        let on_front = canvas.heights.get(x, y).is_nan();
+        let on_front = self.sub.height_at(x, y).is_nan();
         let prio = conf * (0.5 + 0.5 * data) + if on_front { 1.0 } else { 0.0 };
         self.heap.push((prio.to_bits(), Reverse(k as u32), self.version[k]));
     }
+
+    /// Pops the tile's best target and describes it for the shards.
+    fn next_query(&mut self, env: &FillEnv) -> Option<FillQuery> {
+        if self.fills >= self.max_fills {
+            return None;
+        }
+        let t0 = Instant::now();
+        while let Some((_, Reverse(k), ver)) = self.heap.pop() {
+            if ver != self.version[k as usize] {
+                continue;
+            }
+            let (cx, cy) = self.centre(k as usize);
+            let q = fill_query(&self.sub, cx, cy, env.median_relief);
+            self.pending = Some(q.1);
+            self.target_s += t0.elapsed().as_secs_f64();
+            return Some(q.0);
+        }
+        None
+    }
+
+    /// Cuts and merges the best of the shards' answer for the pending target, then
+    /// refreshes the front around it. `false` when nothing could be placed.
+    fn apply(&mut self, cands: &[FillCandidate], env: &FillEnv) -> bool {
+        let t0 = Instant::now();
+        let Some((t, relief)) = self.pending.take() else { return false };
+        let order: Vec<(f32, usize)> = cands.iter().enumerate().map(|(i, c)| (c.cost, i)).collect();
+        let (cx, cy) = (t.cx, t.cy);
+        let placed = cut_and_merge(&mut self.sub, &t, &order, &|i| cands[i].pixels.clone(), relief, 0.0, |i| {
+            let c = &cands[i];
+            Placement {
+                source: c.source,
+                src_x: c.x,
+                src_y: c.y,
+                variant: ridgeline_terrain::patch_geometry::FEATURELESS_VARIANTS[c.variant as usize].0,
+                cx,
+                cy,
+                featureless: true,
+            }
+        });
+        let Some((_, m)) = placed else {
+            self.heap.clear();
+            return false;
+        };
+        self.fills += 1;
+        self.cg_iterations += m.cg_iterations;
+        self.cut_merge_s += t0.elapsed().as_secs_f64();
+        let t1 = Instant::now();
+        // refresh the lattice points whose windows overlap the merged window
+        let p = self.sub.patch;
+        let (gx0, gy0) = (self.sub.origin().0 + t.win.x0, self.sub.origin().1 + t.win.y0);
+        let (x0, x1) = (gx0.saturating_sub(p / 2), gx0 + t.win.w + p / 2);
+        let (y0, y1) = (gy0.saturating_sub(p / 2), gy0 + t.win.h + p / 2);
+        let nx = self.xs.len();
+        for yi in 0..self.ys.len() {
+            if self.ys[yi] < y0 || self.ys[yi] > y1 {
+                continue;
+            }
+            for xi in 0..nx {
+                if self.xs[xi] >= x0 && self.xs[xi] <= x1 {
+                    self.update(yi * nx + xi, env);
+                }
+            }
+        }
+        self.target_s += t1.elapsed().as_secs_f64();
+        true
+    }
 }
 
-/// Fills every empty cell of the canvas.
-/// `on_fill` is told how many empty cells are left after each merge.
+/// The query for a fill target at (cx, cy), and the target with its relief.
+fn fill_query(canvas: &Canvas, cx: usize, cy: usize, median_relief: f32) -> (FillQuery, (Target, f32)) {
+    let p = canvas.patch;
+    let t = Target::at(canvas, cx, cy);
+    let relief = t.relief(median_relief);
+    let samples: Vec<(u32, f32)> = t
+        .full_old
+        .iter()
+        .enumerate()
+        .filter(|(i, v)| !v.is_nan() && (i % p).is_multiple_of(3) && (i / p).is_multiple_of(3))
+        .map(|(i, &v)| (i as u32, v))
+        .collect();
+    // which exemplars the filled part of the window came from
+    let mut from: BTreeMap<u32, usize> = BTreeMap::new();
+    for j in 0..t.win.h {
+        for i in 0..t.win.w {
+            let id = canvas.provenance.get(t.win.x0 + i, t.win.y0 + j);
+            if id != u32::MAX {
+                *from.entry(canvas.placements[id as usize].source).or_default() += 1;
+            }
+        }
+    }
+    let coherence = from.into_iter().map(|(s, n)| (s, n as f32 / t.filled.max(1) as f32)).collect();
+    let q = FillQuery { id: 0, samples, relief, noise: t.noise, coherence, avoid: canvas.avoid_list(cx, cy) };
+    (q, (t, relief))
+}
+
+/// Scores a wave of fill targets on every shard at once and merges the shards'
+/// best-sets: for each target, the `GRAPH_CUT_SET` best in the total order.
+fn score_wave(
+    shards: &[Arc<dyn ShardScorer>],
+    queries: &[FillQuery],
+    seed: u64,
+    pool: &rayon::ThreadPool,
+) -> Result<Vec<Vec<FillCandidate>>, ShardError> {
+    // one OS thread per shard: remote shards wait on the network, in-process shards
+    // run on the job's pool; nothing blocks a pool thread on another
+    let answers: Vec<Result<_, ShardError>> = std::thread::scope(|s| {
+        let span = tracing::Span::current();
+        let handles: Vec<_> = shards
+            .iter()
+            .map(|shard| {
+                let span = span.clone();
+                s.spawn(move || {
+                    let _g = span.enter();
+                    pool.install(|| shard.score_fill(queries, seed, GRAPH_CUT_SET))
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().unwrap_or_else(|_| Err(ShardError::Unavailable("fill scoring panicked".into()))))
+            .collect()
+    });
+    let mut merged: Vec<Vec<FillCandidate>> = vec![Vec::new(); queries.len()];
+    for a in answers {
+        for set in a? {
+            let slot = merged
+                .get_mut(set.target as usize)
+                .ok_or_else(|| ShardError::BadRequest(format!("answer for unknown fill target {}", set.target)))?;
+            slot.extend(set.entries);
+        }
+    }
+    for m in &mut merged {
+        m.sort_by(|a, b| a.order(b));
+        m.truncate(GRAPH_CUT_SET);
+    }
+    Ok(merged)
+}
+
+/// The typical slope of what is already there (median absolute step between
+/// horizontal neighbours, every third cell), for the data term.
+fn typical_slope(canvas: &Canvas) -> f32 {
+    let hh = &canvas.heights;
+    let (w, h) = (hh.width, hh.height);
+    let mut g: Vec<f32> = (0..h)
+        .step_by(3)
+        .flat_map(|y| (0..w.saturating_sub(1)).step_by(3).map(move |x| (x, y)))
+        .filter_map(|(x, y)| {
+            let (a, b) = (hh.get(x, y), hh.get(x + 1, y));
+            (!a.is_nan() && !b.is_nan()).then(|| (a - b).abs())
+        })
+        .collect();
+    if g.is_empty() {
+        return 1.0;
+    }
+    let mid = g.len() / 2;
+    g.select_nth_unstable_by(mid, f32::total_cmp);
+    g[mid].max(1e-3)
+}
+
+/// Fills every empty cell of the canvas, scoring on `shards`. `on_fill` is told how
+/// many empty cells are left after each wave. Call it from outside `pool`: parallel
+/// sections run inside it, and shard calls wait outside it, so no pool thread ever
+/// waits on another (a one-thread pool cannot deadlock).
 pub fn fill_holes(
     canvas: &mut Canvas,
-    pool: &[FeaturelessCandidate],
+    shards: &[Arc<dyn ShardScorer>],
     seed: u64,
+    pool: &rayon::ThreadPool,
     on_fill: &(dyn Fn(u64) + Sync),
 ) -> Result<FillStats, FillError> {
     let mut stats = FillStats::default();
-    let (w, h) = (canvas.heights.width, canvas.heights.height);
+    let (w, h) = canvas.full_size();
     if canvas.empty == 0 {
         return Ok(stats);
     }
-    if pool.is_empty() {
+    let mut reliefs: Vec<f32> = shards.iter().flat_map(|s| s.sources()).flat_map(|s| s.featureless_relief).collect();
+    if reliefs.is_empty() {
         return Err(FillError::NoCandidates);
     }
+    let mid = reliefs.len() / 2;
+    reliefs.select_nth_unstable_by(mid, f32::total_cmp);
+    let median_relief = reliefs[mid].max(1e-3);
     let p = canvas.patch;
-    let maps = variant_maps(p);
-    let mut pool_relief: Vec<f32> = pool.iter().map(|c| finite_std(&c.pixels)).collect();
-    pool_relief.sort_by(f32::total_cmp);
-    let median_relief = pool_relief[pool_relief.len() / 2].max(1e-3);
     if canvas.empty == w * h {
-        // nothing placed (a sketch without strokes): start from one featureless patch
-        let c = &pool[(jitter(seed, &[1]) * pool.len() as f32) as usize % pool.len()];
-        let placement =
-            Placement { source: c.source, src_x: c.x, src_y: c.y, variant: 0, cx: w / 2, cy: h / 2, featureless: true };
+        // nothing placed (a sketch without strokes): start from one featureless patch,
+        // the one the seed's jitter ranks first
+        let q = FillQuery { id: 0, samples: Vec::new(), relief: 1.0, noise: None, coherence: Vec::new(), avoid: Vec::new() };
+        let best = score_wave(shards, &[q], seed, pool)?.remove(0);
+        let c = best.first().ok_or(FillError::NoCandidates)?;
+        let variant = ridgeline_terrain::patch_geometry::FEATURELESS_VARIANTS[c.variant as usize].0;
+        let placement = Placement { source: c.source, src_x: c.x, src_y: c.y, variant, cx: w / 2, cy: h / 2, featureless: true };
         let m = canvas.place(w / 2, h / 2, &c.pixels, 0.0, placement);
         stats.fills += 1;
         stats.cells_filled += m.new_cells;
     }
-    let step = (p / 4).max(1);
-    let mut front = Front { xs: lattice(w, step), ys: lattice(h, step), version: Vec::new(), heap: BinaryHeap::new() };
-    let n_lat = front.xs.len() * front.ys.len();
-    front.version = vec![0; n_lat];
-    // typical slope of what is already there, for the data term
-    let slope_ref = {
-        let hh = &canvas.heights;
-        let mut g: Vec<f32> = (0..h)
-            .step_by(3)
-            .flat_map(|y| (0..w - 1).step_by(3).map(move |x| (x, y)))
-            .filter_map(|(x, y)| {
-                let (a, b) = (hh.get(x, y), hh.get(x + 1, y));
-                (!a.is_nan() && !b.is_nan()).then(|| (a - b).abs())
-            })
-            .collect();
-        g.sort_by(f32::total_cmp);
-        g.get(g.len() / 2).copied().unwrap_or(1.0).max(1e-3)
+    let env = FillEnv { slope_ref: typical_slope(canvas), median_relief };
+    let side = TILE_PATCHES.max(2) * p;
+    let (tw, th) = (w.div_ceil(side), h.div_ceil(side));
+    let core = |t: usize| {
+        let (tx, ty) = (t % tw, t / tw);
+        Rect { x0: tx * side, y0: ty * side, x1: ((tx + 1) * side).min(w), y1: ((ty + 1) * side).min(h) }
     };
-    // Only windows holding both filled and empty cells are on the front. Counting filled
-    // cells per lattice block first lets the initial pass scan just those windows, so a
-    // huge, mostly empty output does not cost a full window scan per lattice point.
-    let (bw, bh) = (w.div_ceil(step), h.div_ceil(step));
-    let mut block_filled = vec![0u32; bw * bh];
-    for y in 0..h {
-        let row = &canvas.heights.data[y * w..(y + 1) * w];
-        for (x, v) in row.iter().enumerate() {
-            if !v.is_nan() {
-                block_filled[(y / step) * bw + x / step] += 1;
-            }
-        }
-    }
-    let block_full = |bx: usize, by: usize| {
-        let (cw, ch) = (step.min(w - bx * step), step.min(h - by * step));
-        block_filled[by * bw + bx] as usize == cw * ch
+    let margin = p / 2 + 2;
+    let count_empty = |c: &Canvas, r: Rect| -> usize {
+        (r.y0..r.y1).map(|y| c.heights.data[y * w + r.x0..y * w + r.x1].iter().filter(|v| v.is_nan()).count()).sum()
     };
-    let reach = p.div_ceil(2).div_ceil(step) + 1;
-    for k in 0..n_lat {
-        let (lx, ly) = (front.xs[k % front.xs.len()] / step, front.ys[k / front.xs.len()] / step);
-        let (mut any_filled, mut any_empty) = (false, false);
-        for by in ly.saturating_sub(reach)..(ly + reach + 1).min(bh) {
-            for bx in lx.saturating_sub(reach)..(lx + reach + 1).min(bw) {
-                any_filled |= block_filled[by * bw + bx] > 0;
-                any_empty |= !block_full(bx, by);
-            }
-        }
-        if any_filled && any_empty {
-            front.update(canvas, k, slope_ref);
-        }
-    }
-    let max_fills = 16 * n_lat + 16;
-    while let Some((_, Reverse(k), ver)) = front.heap.pop() {
-        let k = k as usize;
-        if ver != front.version[k] {
-            continue;
-        }
-        if stats.fills >= max_fills {
-            break;
-        }
-        let t_score = std::time::Instant::now();
-        let (cx, cy) = (front.xs[k % front.xs.len()], front.ys[k / front.xs.len()]);
-        let win = canvas.window(cx, cy);
-        let old = canvas.old_values(&win);
-        let full_old = output_patch(canvas, &win, &old);
-        // round 1: overlap (every third cell each way) + noise variance, all candidates
-        // x variants; the five best then go through the exact graph cut
-        let sample: Vec<(usize, f32)> = full_old
-            .iter()
-            .enumerate()
-            .filter(|(i, v)| !v.is_nan() && (i % p).is_multiple_of(3) && (i / p).is_multiple_of(3))
-            .map(|(i, &v)| (i, v))
-            .collect();
-        let filled = full_old.iter().filter(|v| !v.is_nan()).count();
-        let user_noise = if filled * 4 >= p * p { noise_variances(&full_old, p) } else { None };
-        let relief = finite_std(&full_old).max(median_relief);
-        // which exemplars the filled part of the window came from
-        let mut from: std::collections::BTreeMap<u32, usize> = Default::default();
-        for j in 0..win.h {
-            for i in 0..win.w {
-                let id = canvas.provenance.get(win.x0 + i, win.y0 + j);
-                if id != u32::MAX {
-                    *from.entry(canvas.placements[id as usize].source).or_default() += 1;
-                }
-            }
-        }
-        let coherence = |source: u32| from.get(&source).map(|&n| n as f32 / filled.max(1) as f32).unwrap_or(0.0);
-        let mut scored: Vec<(f32, usize)> = (0..pool.len() * maps.len())
-            .into_par_iter()
-            .map(|idx| {
-                let (ci, vi) = (idx / maps.len(), idx % maps.len());
-                let c = &pool[ci];
-                let map = &maps[vi];
-                let (mut s, mut s2) = (0f64, 0f64);
-                for &(i, v) in &sample {
-                    let d = (c.pixels[map[i] as usize] - v) as f64;
-                    s += d;
-                    s2 += d * d;
-                }
-                let n = sample.len().max(1) as f64;
-                let co = ((s2 / n - (s / n) * (s / n)).max(0.0)).sqrt() as f32 / relief;
-                let cn = user_noise.map(|u| noise_cost(&u, &c.noise)).unwrap_or(0.0);
-                let rep = if crate::selection::repeats(canvas, c.source, c.x, c.y, cx, cy) { REPEAT_PENALTY } else { 0.0 };
-                let j = SEED_JITTER * jitter(seed, &[c.source as u64, c.x as u64, c.y as u64, vi as u64, 7]);
-                (ALPHA_O * co + ALPHA_N * cn - BETA_C * coherence(c.source) + rep + j, idx)
-            })
-            .collect();
-        scored.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        let pixels = |idx: usize| -> Vec<f32> {
-            let (c, map) = (&pool[idx / maps.len()], &maps[idx % maps.len()]);
-            map.iter().map(|&m| c.pixels[m as usize]).collect()
-        };
-        stats.score_s += t_score.elapsed().as_secs_f64();
-        let t_cut = std::time::Instant::now();
-        let force = canvas.forces(&win, &old, 0.0);
-        let Some(choice) = graph_cut_choice(&win, &old, &force, &scored, &pixels, relief) else {
-            break;
-        };
-        stats.cut_s += t_cut.elapsed().as_secs_f64();
-        let t_merge = std::time::Instant::now();
-        let c = &pool[choice.index / maps.len()];
-        let variant: Variant = FEATURELESS_VARIANTS[choice.index % maps.len()];
-        let m = canvas.merge(
-            &win,
-            &choice.new,
-            &choice.seam,
-            Placement { source: c.source, src_x: c.x, src_y: c.y, variant: variant.0, cx, cy, featureless: true },
-        );
-        stats.fills += 1;
-        stats.cells_filled += m.new_cells;
-        stats.cg_iterations += m.cg_iterations;
-        on_fill(canvas.empty as u64);
-        stats.merge_s += t_merge.elapsed().as_secs_f64();
-        let t_front = std::time::Instant::now();
-        // refresh the lattice points whose windows overlap the merged window
-        let (x0, x1) = (win.x0.saturating_sub(p / 2), win.x0 + win.w + p / 2);
-        let (y0, y1) = (win.y0.saturating_sub(p / 2), win.y0 + win.h + p / 2);
-        for (yi, &ly) in front.ys.clone().iter().enumerate() {
-            if ly < y0 || ly > y1 {
+    let mut tile_empty: Vec<usize> =
+        pool.install(|| (0..tw * th).into_par_iter().map(|t| count_empty(canvas, core(t))).collect());
+    let total = canvas.empty as u64 + stats.cells_filled as u64;
+    loop {
+        let before = canvas.empty;
+        stats.rounds += 1;
+        for colour in 0..4 {
+            let ids: Vec<usize> =
+                (0..tw * th).filter(|&t| (t % tw) % 2 + 2 * ((t / tw) % 2) == colour && tile_empty[t] > 0).collect();
+            if ids.is_empty() {
                 continue;
             }
-            for (xi, &lx) in front.xs.clone().iter().enumerate() {
-                if lx >= x0 && lx <= x1 {
-                    front.update(canvas, yi * front.xs.len() + xi, slope_ref);
+            let _span = tracing::debug_span!("fill_phase", round = stats.rounds, colour, tiles = ids.len()).entered();
+            let mut tiles: Vec<TileFill> = pool.install(|| {
+                ids.par_iter()
+                    .map(|&t| {
+                        let c = core(t);
+                        TileFill::new(canvas.extract(c.grow(margin, w, h), c), c, &env)
+                    })
+                    .collect()
+            });
+            loop {
+                let queries: Vec<(usize, FillQuery)> = pool.install(|| {
+                    tiles.par_iter_mut().enumerate().filter_map(|(i, t)| t.next_query(&env).map(|q| (i, q))).collect()
+                });
+                if queries.is_empty() {
+                    break;
+                }
+                stats.waves += 1;
+                let (owners, mut qs): (Vec<usize>, Vec<FillQuery>) = queries.into_iter().unzip();
+                qs.iter_mut().enumerate().for_each(|(i, q)| q.id = i as u32);
+                let ts = Instant::now();
+                let answers = score_wave(shards, &qs, seed, pool)?;
+                stats.score_s += ts.elapsed().as_secs_f64();
+                let mut per_tile: Vec<Option<Vec<FillCandidate>>> = vec![None; tiles.len()];
+                for (o, a) in owners.into_iter().zip(answers) {
+                    per_tile[o] = Some(a);
+                }
+                pool.install(|| {
+                    tiles.par_iter_mut().zip(per_tile).for_each(|(t, a)| {
+                        if let Some(a) = a {
+                            t.apply(&a, &env);
+                        }
+                    })
+                });
+                let done: usize = tiles.iter().map(|t| t.initial_empty - t.sub.empty).sum();
+                on_fill((canvas.empty - done) as u64);
+            }
+            for (t, &id) in tiles.iter().zip(&ids) {
+                stats.cells_filled += canvas.commit(&t.sub);
+                stats.fills += t.fills;
+                stats.cg_iterations += t.cg_iterations;
+                stats.target_s += t.target_s;
+                stats.cut_merge_s += t.cut_merge_s;
+                // the tile and its neighbours may have changed
+                let (tx, ty) = (id % tw, id / tw);
+                for ny in ty.saturating_sub(1)..(ty + 2).min(th) {
+                    for nx in tx.saturating_sub(1)..(tx + 2).min(tw) {
+                        tile_empty[ny * tw + nx] = count_empty(canvas, core(ny * tw + nx));
+                    }
                 }
             }
+            on_fill(canvas.empty as u64);
         }
-        stats.target_s += t_front.elapsed().as_secs_f64();
-    }
-    match canvas.empty {
-        0 => Ok(stats),
-        n => Err(FillError::Stalled(n)),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn variant_maps_are_permutations() {
-        for m in variant_maps(8) {
-            let mut v = m.clone();
-            v.sort_unstable();
-            v.dedup();
-            assert_eq!(v.len(), 64);
+        if canvas.empty == 0 {
+            break;
+        }
+        if canvas.empty == before {
+            return Err(FillError::Stalled(canvas.empty));
         }
     }
+    debug_assert!(total >= stats.cells_filled as u64);
+    Ok(stats)
 }

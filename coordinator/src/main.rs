@@ -333,18 +333,19 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
         cache_dir: if a.no_cache { None } else { Some(a.cache_dir.unwrap_or_else(ridgeline_worker::FeatureCache::default_dir)) },
         max_side: a.max_side,
         progress: if interactive { progress_bars() } else { Progress::default() },
+        keep_features_only: a.debug_dir.is_some(),
         ..SynthConfig::default()
     };
     let out = run_job(&a.sketch, &a.exemplars, &cfg).context("synthesis failed")?;
     let t = std::time::Instant::now();
     let cell = out.report.cell_size_m;
-    ridgeline_terrain::outputs::write_heightfield_with_cell(&a.out, &out.terrain, cell)?;
+    ridgeline_terrain::outputs::write_heightfield_with_cell(&a.out, out.terrain(), cell)?;
     if let Some(n) = a.tiles {
-        let idx = ridgeline_terrain::outputs::write_tiles(&a.out, &out.terrain, n, cell)?;
+        let idx = ridgeline_terrain::outputs::write_tiles(&a.out, out.terrain(), n, cell)?;
         tracing::info!(index = %idx.display(), "tiles written");
     }
     if let Some(p) = &a.preview {
-        ridgeline_terrain::io::write_rgb_png(p, &ridgeline_terrain::io::hillshade(&out.terrain, cell.unwrap_or(1.0)))?;
+        ridgeline_terrain::io::write_rgb_png(p, &ridgeline_terrain::io::hillshade(out.terrain(), cell.unwrap_or(1.0)))?;
     }
     if let Some(d) = &a.debug_dir {
         ridgeline::debug_outputs::write_debug_outputs(d, &out, &out.sketch_image, cell.unwrap_or(1.0))?;

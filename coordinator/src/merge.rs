@@ -1,8 +1,7 @@
 //! Merging a patch into the output (Tasse 2012 §4.3): graph-cut seam, then Shepard
 //! interpolation of the *gradient* mismatch along the seam into the new part, then a
 //! Poisson solve for heights that fit the corrected gradients with the old terrain as
-//! boundary. Also the [`Canvas`]: the output under construction, with the record of
-//! what was placed where (for the repetition penalty and provenance).
+//! boundary. The [`Canvas`] it writes into lives in `canvas.rs`.
 //!
 //! Choices the paper leaves open: the Shepard exponent is 2 and its radius d_φ is
 //! patch/4 (Tasse's value); the new patch is first shifted by its mean offset over the
@@ -10,57 +9,13 @@
 //! CG solve start close; a screening weight of 1e-3 ties the solution to that shifted
 //! patch so a region with no old neighbour is well posed.
 
+use crate::canvas::{Canvas, Placement, Win};
 use crate::graph_cut::{Force, Label, Seam};
 use crate::poisson::{PoissonProblem, SolveStats};
-use ridgeline_terrain::grid::{Grid, Heightfield};
 
 /// Relative residual (‖b − Ax‖ / ‖b‖) at which the Poisson solve stops; the solve
 /// starts from the Shepard-deformed patch, which is already close.
 pub const POISSON_TOLERANCE: f64 = 1e-5;
-
-/// The part of a patch centred at (cx, cy) that falls inside the output.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Win {
-    /// Output coordinates of the window's first cell.
-    pub x0: usize,
-    pub y0: usize,
-    pub w: usize,
-    pub h: usize,
-    /// Patch coordinates of the window's first cell.
-    pub px: usize,
-    pub py: usize,
-    pub patch: usize,
-}
-
-impl Win {
-    pub fn new(cx: usize, cy: usize, patch: usize, out_w: usize, out_h: usize) -> Win {
-        let half = (patch / 2) as i64;
-        let (ox, oy) = (cx as i64 - half, cy as i64 - half);
-        let x0 = ox.max(0);
-        let y0 = oy.max(0);
-        let x1 = (ox + patch as i64).min(out_w as i64);
-        let y1 = (oy + patch as i64).min(out_h as i64);
-        Win {
-            x0: x0 as usize,
-            y0: y0 as usize,
-            w: (x1 - x0).max(0) as usize,
-            h: (y1 - y0).max(0) as usize,
-            px: (x0 - ox) as usize,
-            py: (y0 - oy) as usize,
-            patch,
-        }
-    }
-
-    /// The window's cells of a patch-sized array.
-    pub fn crop(&self, patch_pixels: &[f32]) -> Vec<f32> {
-        let mut v = Vec::with_capacity(self.w * self.h);
-        for j in 0..self.h {
-            let row = (self.py + j) * self.patch + self.px;
-            v.extend_from_slice(&patch_pixels[row..row + self.w]);
-        }
-        v
-    }
-}
 
 /// The optimal seam between the output's `old` values and a `new` patch over a
 /// window, after removing the patch's mean offset over the overlap (which the
@@ -69,33 +24,6 @@ pub fn seam_for(win: &Win, old: &[f32], new: &[f32], force: &[Force]) -> Seam {
     let mu = Canvas::mean_offset(old, new);
     let shifted: Vec<f32> = new.iter().map(|v| v + mu).collect();
     crate::graph_cut::find_seam(win.w, win.h, old, &shifted, force)
-}
-
-/// One placed patch.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Placement {
-    /// Source exemplar, or `u32::MAX` for none.
-    pub source: u32,
-    pub src_x: u32,
-    pub src_y: u32,
-    pub variant: u8,
-    pub cx: usize,
-    pub cy: usize,
-    pub featureless: bool,
-}
-
-/// The output terrain under construction.
-#[derive(Debug, Clone)]
-pub struct Canvas {
-    pub heights: Heightfield,
-    /// Index into `placements` of the patch each cell came from; `u32::MAX` = empty.
-    pub provenance: Grid<u32>,
-    pub placements: Vec<Placement>,
-    pub patch: usize,
-    /// Number of empty cells left.
-    pub empty: usize,
-    /// Sum of the filled heights (kept up to date by `merge`).
-    filled_sum: f64,
 }
 
 /// Statistics of one merge.
@@ -108,31 +36,6 @@ pub struct MergeStats {
 }
 
 impl Canvas {
-    pub fn new(width: usize, height: usize, patch: usize) -> Self {
-        Canvas {
-            heights: Grid::new(width, height, f32::NAN),
-            provenance: Grid::new(width, height, u32::MAX),
-            placements: Vec::new(),
-            patch,
-            empty: width * height,
-            filled_sum: 0.0,
-        }
-    }
-
-    pub fn window(&self, cx: usize, cy: usize) -> Win {
-        Win::new(cx, cy, self.patch, self.heights.width, self.heights.height)
-    }
-
-    /// The output's values over a window (NaN = empty).
-    pub fn old_values(&self, win: &Win) -> Vec<f32> {
-        let mut v = Vec::with_capacity(win.w * win.h);
-        for j in 0..win.h {
-            let row = (win.y0 + j) * self.heights.width + win.x0;
-            v.extend_from_slice(&self.heights.data[row..row + win.w]);
-        }
-        v
-    }
-
     /// Seam constraints (Kwatra 2003): filled window-border cells whose outside
     /// neighbour is filled keep the old terrain; filled cells next to an empty cell of
     /// the window take the new patch, as do cells within `keep_radius` of the centre.
@@ -172,12 +75,6 @@ impl Canvas {
         f
     }
 
-    /// Mean height of the filled cells, `None` when nothing is filled.
-    pub fn filled_mean(&self) -> Option<f32> {
-        let n = self.heights.data.len() - self.empty;
-        (n > 0).then(|| (self.filled_sum / n as f64) as f32)
-    }
-
     /// Mean of `old - new` over the overlap (0 without one).
     pub fn mean_offset(old: &[f32], new: &[f32]) -> f32 {
         let (mut s, mut n) = (0.0f64, 0usize);
@@ -211,9 +108,15 @@ impl Canvas {
         let mu = if old.iter().any(|v| !v.is_nan()) {
             Self::mean_offset(&old, new)
         } else {
-            // nothing to attach to: bring the patch to the level of what is already
-            // placed, so separate features do not keep their sources' base elevations
-            self.filled_mean().map(|m| m - new.iter().sum::<f32>() / new.len().max(1) as f32).unwrap_or(0.0)
+            // nothing to attach to: bring the patch to the base level (see `Canvas`)
+            let mean = new.iter().sum::<f32>() / new.len().max(1) as f32;
+            match self.base_level {
+                Some(b) => b - mean,
+                None => {
+                    self.base_level = Some(mean);
+                    0.0
+                }
+            }
         };
         let b: Vec<f32> = new.iter().map(|v| v + mu).collect();
         // expanded grid: the window plus a one-cell ring of output (Dirichlet where filled)
@@ -376,24 +279,14 @@ impl Canvas {
         let prob =
             PoissonProblem { w: ew, h: eh, unknown: &unknown, fixed: &fixed, dx: &tdx, dy: &tdy, anchor: &bb, lambda: 1e-3 };
         let stats: SolveStats = prob.solve(&mut guess, POISSON_TOLERANCE, 400);
-        let pid = self.placements.len() as u32;
-        self.placements.push(placement);
+        let pid = self.record(placement);
         let mut new_cells = 0;
         for j in 0..win.h {
             for i in 0..win.w {
                 let e = (j + oy) * ew + (i + ox);
                 if unknown[e] {
-                    let (gx, gy) = (win.x0 + i, win.y0 + j);
-                    let before = self.heights.get(gx, gy);
-                    if before.is_nan() {
-                        self.empty -= 1;
-                    } else {
-                        self.filled_sum -= before as f64;
-                    }
-                    self.filled_sum += guess[e] as f64;
-                    self.heights.set(gx, gy, guess[e]);
-                    self.provenance.set(gx, gy, pid);
-                    new_cells += 1;
+                    new_cells += self.heights.get(win.x0 + i, win.y0 + j).is_nan() as usize;
+                    self.write_cell(win.x0 + i, win.y0 + j, guess[e], pid);
                 }
             }
         }

@@ -4,25 +4,32 @@
 //! 2. exemplar shards are loaded (worker side: `ridgeline_worker::InProcessShard`,
 //!    feature extraction from the on-disk cache);
 //! 3. [`crate::user_patches::user_patches`] — user patches in BFS order with control points;
-//! 4. round 1 — every shard scores blocks of user patches (`ShardScorer::score_block`)
-//!    on a producer thread, while
-//! 5. round 2 — [`crate::selection::select_and_merge`] selects and merges block b as soon
-//!    as every shard has answered for it (Crause 2015, figure 6.9);
-//! 6. [`crate::hole_filling::fill_holes`] — featureless patches until no cell is empty.
+//! 4. [`crate::feature_placement::place_features`] — round 1: every shard scores blocks
+//!    of user patches (`ShardScorer::score_block`) on a producer thread, while round 2
+//!    ([`crate::selection::select_and_merge`]) places block b in batches of
+//!    non-interacting user patches (Crause 2015, figure 6.9);
+//! 5. [`crate::hole_filling::fill_holes`] — featureless patches, scored on the shards
+//!    (`ShardScorer::score_fill`), tile by tile in colour phases, until no cell is empty.
 //!
 //! Determinism: round 1 results do not depend on the output, are gathered in (user
-//! patch, source) order and ranked by a total order; round 2 and hole filling run in a
-//! fixed order; parallel loops only map and collect, never reduce floats across
-//! threads. So the bytes of the result do not depend on the thread count.
+//! patch, source) order and ranked by a total order; round 2 gives the sequential BFS
+//! result whatever the batches; hole filling's tiles depend only on the canvas at the
+//! start of their phase; parallel loops only map and collect, never reduce floats
+//! across threads. So the bytes of the result do not depend on the thread count or
+//! the worker count.
+//!
+//! Memory: the canvas holds 8 bytes per output cell (height and provenance), the
+//! sketch 1 and its centre-line graphs 2; `keep_features_only` adds 4 for the debug
+//! view of the terrain before hole filling.
 
+use crate::canvas::Canvas;
+use crate::feature_placement::{place_features, PlacementSettings};
 use crate::hole_filling::{fill_holes, FillError};
-use crate::merge::Canvas;
-use crate::selection::select_and_merge;
 use crate::sketch::{analyse, SketchFeatures};
 use crate::user_patches::{user_patches, UserPatch};
 use ridgeline_terrain::grid::{Grid, Heightfield};
 use ridgeline_terrain::library::{common_cell_size, scan_library, ExemplarSpec};
-use ridgeline_terrain::shard::{BestSet, ScoredCandidate, ShardError, ShardScorer, SourceInfo};
+use ridgeline_terrain::shard::{ShardError, ShardScorer, SourceInfo};
 use ridgeline_terrain::TerrainError;
 use ridgeline_worker::{FeatureCache, InProcessShard, ShardConfig};
 use std::path::{Path, PathBuf};
@@ -56,6 +63,9 @@ pub struct SynthConfig {
     pub progress: Progress,
     /// gRPC workers to score on; `None` = in-process shards.
     pub cluster: Option<Arc<crate::cluster::Cluster>>,
+    /// Keep a copy of the terrain before hole filling (`SynthOutput::features_only`,
+    /// for debug views): 4 more bytes per output cell.
+    pub keep_features_only: bool,
 }
 
 /// A progress callback: `(stage, done, total)`.
@@ -93,6 +103,7 @@ impl Default for SynthConfig {
             shards: 1,
             progress: Progress::default(),
             cluster: None,
+            keep_features_only: false,
         }
     }
 }
@@ -145,6 +156,11 @@ pub struct SynthReport {
     pub fallbacks: Vec<String>,
     /// Time the merging side waited for round-1 results.
     pub wait_for_workers_s: f64,
+    /// Round-2 batches of non-interacting user patches.
+    pub placement_batches: usize,
+    /// Hole-filling rounds (of four colour phases) and scoring waves.
+    pub fill_rounds: usize,
+    pub fill_waves: usize,
     /// Sketch adherence of the result: sampled ridge centre-line points with a
     /// ridge-shaped cross profile at patch/4, and the same for valleys.
     pub ridge_adherence: crate::quality::Adherence,
@@ -161,15 +177,21 @@ impl SynthReport {
 
 /// A finished job.
 pub struct SynthOutput {
-    pub terrain: Heightfield,
     /// The sketch as read.
     pub sketch_image: Grid<u8>,
-    /// The output after feature placement, before hole filling.
-    pub features_only: Heightfield,
+    /// The output after feature placement, before hole filling (when asked for).
+    pub features_only: Option<Heightfield>,
     pub sketch: SketchFeatures,
     pub user_patches: Vec<UserPatch>,
     pub canvas: Canvas,
     pub report: SynthReport,
+}
+
+impl SynthOutput {
+    /// The finished terrain (the canvas's heights; no copy).
+    pub fn terrain(&self) -> &Heightfield {
+        &self.canvas.heights
+    }
 }
 
 /// Loads the exemplar library of `dir` into `cfg.shards` in-process shards,
@@ -204,33 +226,6 @@ pub fn load_library(dir: &Path, cfg: &SynthConfig) -> Result<(Shards, Option<f32
         return Err(SynthError::NoExemplars(dir.to_path_buf(), why.concat()));
     }
     Ok((shards, cell))
-}
-
-/// The fallback for a user patch whose kind no exemplar offers: a valley turned
-/// upside down is a ridge (and vice versa), so the other kind's candidates are
-/// matched against the negated profiles and their pixels negated.
-fn inverted_candidates(shards: &[Arc<dyn ShardScorer>], u: &UserPatch, k: usize) -> Result<Vec<ScoredCandidate>, ShardError> {
-    let mut q = u.query.clone();
-    q.kind = match u.kind {
-        ridgeline_terrain::FeatureKind::Ridge => ridgeline_terrain::FeatureKind::Valley,
-        ridgeline_terrain::FeatureKind::Valley => ridgeline_terrain::FeatureKind::Ridge,
-    };
-    for p in &mut q.profiles {
-        for v in p.iter_mut() {
-            *v = -*v;
-        }
-    }
-    let mut out = Vec::new();
-    for s in shards {
-        for set in s.score_block(std::slice::from_ref(&q), k)? {
-            out.extend(set.entries.into_iter().map(|mut c| {
-                c.pixels.iter_mut().for_each(|v| *v = -*v);
-                c
-            }));
-        }
-    }
-    out.sort_by(|a, b| a.order(b));
-    Ok(out)
 }
 
 fn thread_pool(threads: usize) -> Result<rayon::ThreadPool, SynthError> {
@@ -310,124 +305,40 @@ fn synthesize_in(
     // rounds 1 and 2, pipelined by block
     let t = Instant::now();
     let mut canvas = Canvas::new(sketch.width, sketch.height, p);
-    let blocks: Vec<&[UserPatch]> = ups.chunks(cfg.block).collect();
-    let mut wait = 0.0f64;
-    let mut placed = 0usize;
-    let mut cand_total = 0usize;
-    let mut round1_s = 0.0f64;
-    let mut fallbacks = Vec::new();
-    std::thread::scope(|scope| -> Result<(), SynthError> {
-        let (tx, rx) = std::sync::mpsc::sync_channel::<Result<(Vec<BestSet>, f64), ShardError>>(2);
-        let blocks_ref = &blocks;
-        let job_span = tracing::Span::current();
-        scope.spawn(move || {
-            let _g = job_span.enter();
-            for (bi, block) in blocks_ref.iter().enumerate() {
-                let _b = tracing::info_span!("block", index = bi, user_patches = block.len()).entered();
-                let t = Instant::now();
-                let queries: Vec<_> = block.iter().map(|u| u.query.clone()).collect();
-                // every shard scores the block at once (remote shards wait on the network)
-                let answers: Vec<Result<Vec<BestSet>, ShardError>> = std::thread::scope(|s| {
-                    let handles: Vec<_> = shards
-                        .iter()
-                        .enumerate()
-                        .map(|(si, shard)| {
-                            let (queries, span) = (&queries, tracing::Span::current());
-                            s.spawn(move || {
-                                let _g = span.enter();
-                                let _w = tracing::debug_span!("worker_call", shard = si).entered();
-                                pool.install(|| shard.score_block(queries, cfg.k))
-                            })
-                        })
-                        .collect();
-                    handles
-                        .into_iter()
-                        .map(|h| h.join().unwrap_or_else(|_| Err(ShardError::Unavailable("scoring thread panicked".into()))))
-                        .collect()
-                });
-                let mut sets = Vec::new();
-                for a in answers {
-                    match a {
-                        Ok(s) => sets.extend(s),
-                        Err(e) => {
-                            let _ = tx.send(Err(e));
-                            return;
-                        }
-                    }
-                }
-                if tx.send(Ok((sets, t.elapsed().as_secs_f64()))).is_err() {
-                    return;
-                }
-            }
-        });
-        for block in &blocks {
-            let tw = Instant::now();
-            let msg = rx.recv().map_err(|_| ShardError::Unavailable("round-1 producer stopped".into()))?;
-            wait += tw.elapsed().as_secs_f64();
-            let (sets, secs) = msg?;
-            round1_s += secs;
-            for u in block.iter() {
-                let mut cands: Vec<ScoredCandidate> =
-                    sets.iter().filter(|s| s.user_patch == u.id).flat_map(|s| s.entries.iter().cloned()).collect();
-                cands.sort_by(|a, b| a.order(b));
-                if cands.is_empty() {
-                    cands = pool.install(|| inverted_candidates(shards, u, cfg.k))?;
-                    let what =
-                        if cands.is_empty() { "left to hole filling" } else { "used inverted candidates of the other kind" };
-                    let note = format!(
-                        "user patch {} ({} at {},{}): no {} candidates in the library; {what}",
-                        u.id,
-                        u.kind.name(),
-                        u.cx,
-                        u.cy,
-                        u.kind.name()
-                    );
-                    tracing::warn!("{note}");
-                    fallbacks.push(note);
-                }
-                cand_total += cands.len();
-                let _m = tracing::debug_span!("merge", user_patch = u.id, candidates = cands.len()).entered();
-                if pool.install(|| select_and_merge(&mut canvas, u.cx, u.cy, &cands, cfg.seed)).is_some() {
-                    placed += 1;
-                }
-                cfg.progress.report("feature placement", u.id as u64 + 1, ups.len() as u64);
-            }
-        }
-        Ok(())
-    })?;
-    report.feature_patches_placed = placed;
-    report.candidates_per_user_patch = if ups.is_empty() { 0 } else { cand_total / ups.len() };
-    report.wait_for_workers_s = wait;
-    report.fallbacks = fallbacks;
-    report.stages.push(StageTiming { stage: "round1_scoring", seconds: round1_s });
+    let progress = |done: u64, total: u64| cfg.progress.report("feature placement", done, total);
+    let settings = PlacementSettings { k: cfg.k, block: cfg.block, seed: cfg.seed, progress: &progress };
+    let placed = {
+        let _s = tracing::info_span!("stage", name = "feature_placement").entered();
+        place_features(&mut canvas, &ups, shards, &settings, pool)?
+    };
+    report.feature_patches_placed = placed.placed;
+    report.candidates_per_user_patch = if ups.is_empty() { 0 } else { placed.candidates / ups.len() };
+    report.wait_for_workers_s = placed.wait_s;
+    report.placement_batches = placed.batches;
+    report.fallbacks = placed.fallbacks;
+    report.stages.push(StageTiming { stage: "round1_scoring", seconds: placed.round1_s });
     report.stage("feature_placement", t);
-    let features_only = canvas.heights.clone();
+    let features_only = cfg.keep_features_only.then(|| canvas.heights.clone());
 
     let t = Instant::now();
-    let pool_cands = {
-        let mut v = Vec::new();
-        for s in shards {
-            v.extend(s.featureless_pool()?);
-        }
-        // a fixed order whatever the sharding, so ties break the same way
-        v.sort_by_key(|c| (c.source, c.y, c.x));
-        v
-    };
     let fill = {
-        let _s = tracing::info_span!("stage", name = "hole_filling", candidates = pool_cands.len()).entered();
+        let _s = tracing::info_span!("stage", name = "hole_filling").entered();
         let empty = canvas.empty as u64;
         let on_fill = |left: u64| cfg.progress.report("hole filling", empty - left, empty);
-        pool.install(|| fill_holes(&mut canvas, &pool_cands, cfg.seed, &on_fill))?
+        fill_holes(&mut canvas, shards, cfg.seed, pool, &on_fill)?
     };
     report.hole_fills = fill.fills;
+    report.fill_rounds = fill.rounds;
+    report.fill_waves = fill.waves;
     report.cells_filled_by_holes = fill.cells_filled;
     tracing::info!(
         fills = fill.fills,
         cells = fill.cells_filled,
-        target_s = fill.target_s,
+        rounds = fill.rounds,
+        waves = fill.waves,
         score_s = fill.score_s,
-        cut_s = fill.cut_s,
-        merge_s = fill.merge_s,
+        target_s = fill.target_s,
+        cut_merge_s = fill.cut_merge_s,
         cg_iterations = fill.cg_iterations,
         "holes filled"
     );
@@ -442,13 +353,5 @@ fn synthesize_in(
         let name = report.exemplars.iter().find(|e| e.source == pl.source).map(|e| e.name.clone()).unwrap_or_default();
         *report.placements_per_exemplar.entry(name).or_default() += 1;
     }
-    Ok(SynthOutput {
-        terrain: canvas.heights.clone(),
-        sketch_image: sketch.clone(),
-        features_only,
-        sketch: sk,
-        user_patches: ups,
-        canvas,
-        report,
-    })
+    Ok(SynthOutput { sketch_image: sketch.clone(), features_only, sketch: sk, user_patches: ups, canvas, report })
 }

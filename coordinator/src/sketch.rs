@@ -14,9 +14,16 @@
 //! around every ridge centre line, minus the same around every valley centre line.
 //! Round 1 compares its perpendicular profiles with the exemplars' (each normalised
 //! by its own mean and range), so a binary sketch and real elevations are comparable.
+//! The guide is never stored for the whole sketch: [`SketchFeatures::local_guide`]
+//! computes it around one user patch, exactly (see there).
+//!
+//! Cost and memory are linear in the sketch's area: one exact distance transform and
+//! one PPA pass per stroke kind, one kind after the other; at its peak the stage holds
+//! about 7 bytes per cell besides the sketch (a distance field, the candidate mask,
+//! the graphs).
 
-use ridgeline_terrain::feature_extraction::{extract_features, FeatureGraph, FeatureKind, PpaParams};
-use ridgeline_terrain::grid::{distance_transform, Grid};
+use ridgeline_terrain::feature_extraction::{extract_ridges, FeatureGraph, FeatureKind, PpaParams};
+use ridgeline_terrain::grid::{distance_transform_by, Grid};
 
 /// PPA parameters for stroke distance fields.
 pub const SKETCH_PPA: PpaParams = PpaParams { half_len: 2, dip: 0.25, min_branch: 12.0, passes: 3 };
@@ -28,8 +35,33 @@ pub struct SketchFeatures {
     pub height: usize,
     pub ridges: FeatureGraph,
     pub valleys: FeatureGraph,
-    /// Shape guide: +tent around ridges, −tent around valleys.
-    pub guide: Grid<f32>,
+    /// Half-width of the guide's tents (patch/4).
+    pub tent_half_width: f32,
+}
+
+/// The guide field over a rectangle of the sketch.
+pub struct LocalGuide {
+    x0: usize,
+    y0: usize,
+    width: usize,
+    height: usize,
+    field: Grid<f32>,
+}
+
+impl LocalGuide {
+    /// Bilinear sample at global (x, y), clamped to the sketch like
+    /// `Grid::sample_bilinear` on the whole guide.
+    pub fn sample(&self, x: f32, y: f32) -> f32 {
+        let xc = x.clamp(0.0, (self.width - 1) as f32);
+        let yc = y.clamp(0.0, (self.height - 1) as f32);
+        let (x0, y0) = (xc.floor() as usize, yc.floor() as usize);
+        let (x1, y1) = ((x0 + 1).min(self.width - 1), (y0 + 1).min(self.height - 1));
+        let (fx, fy) = (xc - x0 as f32, yc - y0 as f32);
+        let g = |x: usize, y: usize| self.field.get(x - self.x0, y - self.y0);
+        let a = g(x0, y0) * (1.0 - fx) + g(x1, y0) * fx;
+        let b = g(x0, y1) * (1.0 - fx) + g(x1, y1) * fx;
+        a * (1.0 - fy) + b * fy
+    }
 }
 
 impl SketchFeatures {
@@ -38,6 +70,24 @@ impl SketchFeatures {
             FeatureKind::Ridge => &self.ridges,
             FeatureKind::Valley => &self.valleys,
         }
+    }
+
+    /// The guide (+tent around ridges, −tent around valleys) over every cell within
+    /// `reach` of (cx, cy) (plus one for bilinear sampling). The distance transforms run
+    /// on a window padded by more than the tent's half-width, so every value equals the
+    /// whole-sketch field's: a centre line outside the window is too far to matter.
+    pub fn local_guide(&self, cx: usize, cy: usize, reach: usize) -> LocalGuide {
+        let pad = reach + self.tent_half_width.ceil() as usize + 2;
+        let (x0, y0) = (cx.saturating_sub(pad), cy.saturating_sub(pad));
+        let (x1, y1) = ((cx + pad + 1).min(self.width), (cy + pad + 1).min(self.height));
+        let (w, h) = (x1 - x0, y1 - y0);
+        let tent = |g: &FeatureGraph| {
+            let d = distance_transform_by(w, h, |i| g.contains(((y0 + i / w) * self.width + x0 + i % w) as u32));
+            d.map(|d| (1.0 - d / self.tent_half_width).max(0.0))
+        };
+        let (r, v) = (tent(&self.ridges), tent(&self.valleys));
+        let field = Grid::from_vec(w, h, r.data.iter().zip(&v.data).map(|(a, b)| a - b).collect());
+        LocalGuide { x0, y0, width: self.width, height: self.height, field }
     }
 }
 
@@ -51,45 +101,26 @@ pub fn is_stroke(v: u8, kind: FeatureKind) -> bool {
 
 /// Centre lines of the strokes of one kind.
 pub fn centre_lines(sketch: &Grid<u8>, kind: FeatureKind) -> FeatureGraph {
-    let outside = sketch.map(|v| !is_stroke(v, kind));
-    if outside.data.iter().all(|&o| o) {
-        return FeatureGraph::empty(sketch.width, sketch.height);
+    let (w, h) = (sketch.width, sketch.height);
+    if !sketch.data.iter().any(|&v| is_stroke(v, kind)) {
+        return FeatureGraph::empty(w, h);
     }
-    let dist = distance_transform(&outside);
-    // cells outside the image count as background, so strokes touching the border
-    // still have a crest
-    let field = Grid::from_vec(
-        sketch.width,
-        sketch.height,
-        dist.data
-            .iter()
-            .enumerate()
-            .map(|(i, &d)| {
-                let (x, y) = (i % sketch.width, i / sketch.width);
-                let edge = (x.min(sketch.width - 1 - x).min(y).min(sketch.height - 1 - y) + 1) as f32;
-                d.min(edge)
-            })
-            .collect(),
-    );
-    extract_features(&field, FeatureKind::Ridge, &SKETCH_PPA)
-}
-
-fn tent(g: &FeatureGraph, half_width: f32) -> Grid<f32> {
-    let mut seeds = Grid::new(g.width, g.height, false);
-    for p in g.pixels() {
-        seeds.data[p as usize] = true;
+    // distance to the nearest non-stroke cell; cells outside the image count as
+    // background, so strokes touching the border still have a crest
+    let mut field = distance_transform_by(w, h, |i| !is_stroke(sketch.data[i], kind));
+    for (i, d) in field.data.iter_mut().enumerate() {
+        let (x, y) = (i % w, i / w);
+        *d = d.min((x.min(w - 1 - x).min(y).min(h - 1 - y) + 1) as f32);
     }
-    distance_transform(&seeds).map(|d| (1.0 - d / half_width).max(0.0))
+    extract_ridges(field, &SKETCH_PPA)
 }
 
 /// Analyses a sketch for patches of `patch` cells.
 pub fn analyse(sketch: &Grid<u8>, patch: usize) -> SketchFeatures {
-    let (ridges, valleys) =
-        rayon::join(|| centre_lines(sketch, FeatureKind::Ridge), || centre_lines(sketch, FeatureKind::Valley));
-    let hw = patch as f32 / 4.0;
-    let (tr, tv) = rayon::join(|| tent(&ridges, hw), || tent(&valleys, hw));
-    let guide = Grid::from_vec(sketch.width, sketch.height, tr.data.iter().zip(&tv.data).map(|(a, b)| a - b).collect());
-    SketchFeatures { width: sketch.width, height: sketch.height, ridges, valleys, guide }
+    // one kind after the other: half the peak memory of running both at once
+    let ridges = centre_lines(sketch, FeatureKind::Ridge);
+    let valleys = centre_lines(sketch, FeatureKind::Valley);
+    SketchFeatures { width: sketch.width, height: sketch.height, ridges, valleys, tent_half_width: patch as f32 / 4.0 }
 }
 
 #[cfg(test)]
@@ -148,7 +179,32 @@ mod tests {
         assert!(f.ridges.pixels().next().is_none());
         assert!(f.valleys.pixels().count() > 150);
         let (x, y) = (120usize, (0.3f32 * 120.0 + 40.0).round() as usize);
-        assert!(f.guide.get(x, y) < -0.9);
-        assert!(f.guide.get(x, y + 30) == 0.0);
+        let g = f.local_guide(x, y, 32);
+        assert!(g.sample(x as f32, y as f32) < -0.9);
+        assert!(g.sample(x as f32, (y + 30) as f32) == 0.0);
+    }
+
+    #[test]
+    fn the_local_guide_equals_the_whole_sketch_field() {
+        use ridgeline_terrain::grid::distance_transform;
+        let mut s = stroke_sketch(5.0, 255);
+        for x in 30..200 {
+            s.set(x, 150, 0); // a valley stroke below the ridge
+        }
+        let f = analyse(&s, 64);
+        let tent = |g: &FeatureGraph| {
+            let mut seeds = Grid::new(g.width, g.height, false);
+            g.pixels().for_each(|p| seeds.data[p as usize] = true);
+            distance_transform(&seeds).map(|d| (1.0 - d / 16.0).max(0.0))
+        };
+        let (r, v) = (tent(&f.ridges), tent(&f.valleys));
+        let whole = Grid::from_vec(256, 192, r.data.iter().zip(&v.data).map(|(a, b)| a - b).collect());
+        for &(cx, cy) in &[(100usize, 70usize), (5, 5), (250, 150), (128, 120)] {
+            let g = f.local_guide(cx, cy, 32);
+            for k in 0..200 {
+                let (x, y) = (cx as f32 - 32.0 + (k % 20) as f32 * 3.3, cy as f32 - 32.0 + (k / 20) as f32 * 6.7);
+                assert_eq!(g.sample(x, y), whole.sample_bilinear(x, y), "at ({x}, {y}) near ({cx}, {cy})");
+            }
+        }
     }
 }

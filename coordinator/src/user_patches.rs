@@ -44,25 +44,41 @@ pub fn place_nodes(g: &FeatureGraph, patch: usize) -> Vec<u32> {
         .collect();
     trees.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
     let mut chosen: Vec<u32> = Vec::new();
-    let mut acc = vec![f32::NAN; g.width * g.height];
-    let too_close = |chosen: &[u32], p: u32| {
+    // accumulated path length per visited cell, only for the cells of the graph
+    let mut acc: std::collections::HashMap<u32, f32> = std::collections::HashMap::new();
+    // chosen nodes by bucket of the culling distance: a cull test looks at 3 x 3 buckets
+    let cell = (patch / 16).max(1);
+    let mut buckets: std::collections::HashMap<(usize, usize), Vec<u32>> = std::collections::HashMap::new();
+    let too_close = |buckets: &std::collections::HashMap<(usize, usize), Vec<u32>>, p: u32| {
         let (x, y) = g.xy(p);
-        chosen.iter().any(|&c| {
-            let (cx, cy) = g.xy(c);
-            let (dx, dy) = (cx as f32 - x as f32, cy as f32 - y as f32);
-            dx * dx + dy * dy < cull2
+        let (bx, by) = (x / cell, y / cell);
+        (by.saturating_sub(1)..=by + 1).any(|yy| {
+            (bx.saturating_sub(1)..=bx + 1).any(|xx| {
+                buckets.get(&(xx, yy)).is_some_and(|v| {
+                    v.iter().any(|&c| {
+                        let (cx, cy) = g.xy(c);
+                        let (dx, dy) = (cx as f32 - x as f32, cy as f32 - y as f32);
+                        dx * dx + dy * dy < cull2
+                    })
+                })
+            })
         })
+    };
+    let choose = |chosen: &mut Vec<u32>, buckets: &mut std::collections::HashMap<(usize, usize), Vec<u32>>, p: u32| {
+        let (x, y) = g.xy(p);
+        buckets.entry((x / cell, y / cell)).or_default().push(p);
+        chosen.push(p);
     };
     for (_, root) in trees {
         let mut q = VecDeque::from([root]);
-        acc[root as usize] = 0.0;
-        if !too_close(&chosen, root) {
-            chosen.push(root);
+        acc.insert(root, 0.0);
+        if !too_close(&buckets, root) {
+            choose(&mut chosen, &mut buckets, root);
         }
         while let Some(p) = q.pop_front() {
-            let a = acc[p as usize];
+            let a = acc[&p];
             for n in g.neighbors(p) {
-                if !acc[n as usize].is_nan() {
+                if acc.contains_key(&n) {
                     continue;
                 }
                 let (px, py) = g.xy(p);
@@ -70,11 +86,11 @@ pub fn place_nodes(g: &FeatureGraph, patch: usize) -> Vec<u32> {
                 let d = if px != nx && py != ny { std::f32::consts::SQRT_2 } else { 1.0 };
                 let mut an = a + d;
                 let is_leaf = g.degree(n) == 1;
-                if (an >= step || (is_leaf && an >= leaf_min)) && !too_close(&chosen, n) {
-                    chosen.push(n);
+                if (an >= step || (is_leaf && an >= leaf_min)) && !too_close(&buckets, n) {
+                    choose(&mut chosen, &mut buckets, n);
                     an = 0.0;
                 }
-                acc[n as usize] = an;
+                acc.insert(n, an);
                 q.push_back(n);
             }
         }
@@ -96,11 +112,11 @@ pub fn user_patches(sk: &SketchFeatures, patch: usize) -> Vec<UserPatch> {
             }
             let (cx, cy) = g.xy(p);
             let paths = profile_paths(&e, radius, PROFILE_STEP);
+            let guide = sk.local_guide(cx, cy, patch / 2 + 1);
             let profiles = paths
                 .iter()
                 .map(|path| {
-                    let mut v: Vec<f32> =
-                        path.offsets.iter().map(|o| sk.guide.sample_bilinear(cx as f32 + o[0], cy as f32 + o[1])).collect();
+                    let mut v: Vec<f32> = path.offsets.iter().map(|o| guide.sample(cx as f32 + o[0], cy as f32 + o[1])).collect();
                     normalise_profile(&mut v, 0.05);
                     v
                 })

@@ -7,7 +7,7 @@ use ridgeline_terrain::costs::NOISE_LEVELS;
 use ridgeline_terrain::feature_extraction::FeatureKind;
 use ridgeline_terrain::patch_geometry::{ProfilePath, Variant};
 use ridgeline_terrain::shard::{
-    BestSet, CandidateRef, FeaturelessCandidate, ScoredCandidate, SkippedExemplar, SourceInfo, UserPatchQuery,
+    BestSet, CandidateRef, FillBestSet, FillCandidate, FillQuery, ScoredCandidate, SkippedExemplar, SourceInfo, UserPatchQuery,
 };
 
 fn pairs(v: &[f32]) -> Result<Vec<[f32; 2]>, String> {
@@ -91,17 +91,82 @@ pub fn best_set_from_wire(b: v1::BestSet, patch: usize) -> Result<BestSet, Strin
     Ok(BestSet { user_patch: b.user_patch, source: b.source, entries })
 }
 
-pub fn pool_to_wire(c: &FeaturelessCandidate) -> v1::FeaturelessCandidate {
-    v1::FeaturelessCandidate { source: c.source, x: c.x, y: c.y, pixels: c.pixels.clone(), noise: c.noise.to_vec() }
+pub fn fill_target_to_wire(q: &FillQuery) -> v1::FillTarget {
+    v1::FillTarget {
+        id: q.id,
+        sample_index: q.samples.iter().map(|s| s.0).collect(),
+        sample_value: q.samples.iter().map(|s| s.1).collect(),
+        relief: q.relief,
+        noise: q.noise.map(|n| n.to_vec()).unwrap_or_default(),
+        coherence_source: q.coherence.iter().map(|c| c.0).collect(),
+        coherence_share: q.coherence.iter().map(|c| c.1).collect(),
+        avoid: q.avoid.iter().flat_map(|a| [a.0, a.1, a.2]).collect(),
+    }
 }
 
-pub fn pool_from_wire(c: v1::FeaturelessCandidate, patch: usize) -> Result<FeaturelessCandidate, String> {
-    if c.pixels.len() != patch * patch || c.noise.len() != NOISE_LEVELS {
-        return Err(format!("featureless candidate of source {}: bad sizes", c.source));
+pub fn fill_target_from_wire(t: v1::FillTarget, patch: usize) -> Result<FillQuery, String> {
+    let bad = |what: &str| Err(format!("fill target {}: {what}", t.id));
+    if t.sample_index.len() != t.sample_value.len() || t.sample_index.len() > patch * patch {
+        return bad("sample indices and values differ in count or exceed the patch");
     }
-    let mut noise = [0f32; NOISE_LEVELS];
-    noise.copy_from_slice(&c.noise);
-    Ok(FeaturelessCandidate { source: c.source, x: c.x, y: c.y, pixels: c.pixels, noise })
+    if t.sample_index.iter().any(|&i| i as usize >= patch * patch) || t.sample_value.iter().any(|v| !v.is_finite()) {
+        return bad("a sample lies outside the patch or is not finite");
+    }
+    if !(t.relief.is_finite() && t.relief > 0.0) {
+        return bad("relief must be positive");
+    }
+    let noise = match t.noise.len() {
+        0 => None,
+        NOISE_LEVELS if t.noise.iter().all(|v| v.is_finite()) => {
+            let mut n = [0f32; NOISE_LEVELS];
+            n.copy_from_slice(&t.noise);
+            Some(n)
+        }
+        _ => return bad("noise needs one finite value per level"),
+    };
+    if t.coherence_source.len() != t.coherence_share.len() || !t.avoid.len().is_multiple_of(3) {
+        return bad("coherence or avoid lists are malformed");
+    }
+    Ok(FillQuery {
+        id: t.id,
+        samples: t.sample_index.into_iter().zip(t.sample_value).collect(),
+        relief: t.relief,
+        noise,
+        coherence: t.coherence_source.into_iter().zip(t.coherence_share).collect(),
+        avoid: t.avoid.chunks_exact(3).map(|c| (c[0], c[1], c[2])).collect(),
+    })
+}
+
+pub fn fill_set_to_wire(b: &FillBestSet) -> v1::FillBestSet {
+    v1::FillBestSet {
+        target: b.target,
+        entries: b
+            .entries
+            .iter()
+            .map(|c| v1::FillCandidate {
+                source: c.source,
+                x: c.x,
+                y: c.y,
+                variant: c.variant as u32,
+                cost: c.cost,
+                pixels: c.pixels.clone(),
+            })
+            .collect(),
+    }
+}
+
+pub fn fill_set_from_wire(b: v1::FillBestSet, patch: usize) -> Result<FillBestSet, String> {
+    let entries = b
+        .entries
+        .into_iter()
+        .map(|c| {
+            if c.pixels.len() != patch * patch || c.variant >= 6 || !c.cost.is_finite() {
+                return Err(format!("fill candidate of source {}: bad size, variant or cost", c.source));
+            }
+            Ok(FillCandidate { source: c.source, x: c.x, y: c.y, variant: c.variant as u8, cost: c.cost, pixels: c.pixels })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(FillBestSet { target: b.target, entries })
 }
 
 pub fn source_to_wire(s: &SourceInfo) -> v1::SourceInfo {
@@ -114,6 +179,7 @@ pub fn source_to_wire(s: &SourceInfo) -> v1::SourceInfo {
         valley_nodes: s.feature_nodes[1] as u32,
         featureless: s.featureless as u32,
         cache_hit: s.cache_hit,
+        featureless_relief: s.featureless_relief.clone(),
     }
 }
 
@@ -126,6 +192,7 @@ pub fn source_from_wire(s: v1::SourceInfo) -> SourceInfo {
         feature_nodes: [s.ridge_nodes as usize, s.valley_nodes as usize],
         featureless: s.featureless as usize,
         cache_hit: s.cache_hit,
+        featureless_relief: s.featureless_relief,
     }
 }
 
@@ -163,6 +230,24 @@ mod tests {
         let mut w = query_to_wire(&q);
         w.exit_angles[0] = f32::NAN;
         assert!(query_from_wire(w).is_err());
+        let t = FillQuery {
+            id: 4,
+            samples: vec![(0, 1.5), (63, -2.0)],
+            relief: 3.0,
+            noise: Some([0.1, 0.2, 0.3]),
+            coherence: vec![(2, 0.75)],
+            avoid: vec![(2, 10, 20)],
+        };
+        assert_eq!(fill_target_from_wire(fill_target_to_wire(&t), 8).unwrap(), t);
+        let mut w = fill_target_to_wire(&t);
+        w.sample_index[1] = 64;
+        assert!(fill_target_from_wire(w, 8).is_err(), "sample outside an 8 x 8 patch");
+        let mut w = fill_target_to_wire(&t);
+        w.relief = 0.0;
+        assert!(fill_target_from_wire(w, 8).is_err());
+        let mut w = fill_target_to_wire(&t);
+        w.avoid.pop();
+        assert!(fill_target_from_wire(w, 8).is_err());
         assert!(is_content_hash(&"ab".repeat(32)) && !is_content_hash("../../etc/passwd") && !is_content_hash(&"AB".repeat(32)));
     }
 }

@@ -6,8 +6,12 @@ pub mod v1 {
     tonic::include_proto!("ridgeline.v1");
 }
 
-/// The protocol version a worker reports in `Capabilities`.
-pub const PROTOCOL_VERSION: u32 = 1;
+/// The protocol version a worker reports in `Capabilities`: 2 added `ScoreFill` and
+/// removed `FeaturelessPool` (hole-fill scoring runs where the pool lives).
+pub const PROTOCOL_VERSION: u32 = 2;
+
+/// Layout version of the `FillRequest` / `FillReply` messages.
+pub const FILL_VERSION: u32 = 1;
 
 pub mod convert;
 

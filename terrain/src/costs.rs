@@ -13,6 +13,75 @@ pub const ALPHA_O: f32 = 1.0;
 /// the same minor, tie-breaking role.
 pub const ALPHA_N: f32 = 0.1;
 
+/// Largest cost the seed adds to a candidate: enough to choose differently among
+/// candidates within a few percent of each other (so each seed gives its own terrain),
+/// never enough to prefer a clearly worse one.
+pub const SEED_JITTER: f32 = 0.03;
+
+/// Cost added for reusing a source region near where it was already placed
+/// (Crause §6.6, widened: see [`repeats`]).
+pub const REPEAT_PENALTY: f32 = 2.0;
+
+/// Weight of the hole-filling coherence bonus: a featureless candidate from an
+/// exemplar that already makes up a fraction f of the target window's filled cells
+/// costs `BETA_C * f` less, so a hole is continued in the terrain style around it
+/// (real neighbouring terrain shares its geology) instead of a patchwork of every
+/// source in the library.
+pub const BETA_C: f32 = 0.3;
+
+/// Deterministic hash of the seed and a candidate identity to [0, 1).
+pub fn jitter(seed: u64, parts: &[u64]) -> f32 {
+    let mut h = seed ^ 0x9E37_79B9_7F4A_7C15;
+    for &p in parts {
+        h ^= p.wrapping_add(0x9E37_79B9_7F4A_7C15).wrapping_add(h << 6).wrapping_add(h >> 2);
+        h = h.wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        h ^= h >> 31;
+    }
+    (h >> 40) as f32 / (1u64 << 24) as f32
+}
+
+/// The repetition rule: a placement of source region `(sx, sy)` at output centre `c`
+/// repeats an earlier one of the same source at `(px, py)` placed at `pc` when the
+/// source regions overlap by more than half a patch each way and the output centres
+/// are within three patches (Crause §6.6 penalises only the previous patch; any
+/// nearby reuse is as visible).
+pub fn repeats(
+    patch: usize,
+    earlier: (u32, u32),
+    earlier_centre: (usize, usize),
+    src: (u32, u32),
+    centre: (usize, usize),
+) -> bool {
+    let p = patch as i64;
+    (earlier.0 as i64 - src.0 as i64).abs() < p / 2
+        && (earlier.1 as i64 - src.1 as i64).abs() < p / 2
+        && near_centre(patch, earlier_centre, centre)
+}
+
+/// Whether two output centres are close enough for the repetition rule to compare
+/// them: closer than three patches.
+pub fn near_centre(patch: usize, a: (usize, usize), b: (usize, usize)) -> bool {
+    let p = patch as i64;
+    (a.0 as i64 - b.0 as i64).pow(2) + (a.1 as i64 - b.1 as i64).pow(2) < (3 * p).pow(2)
+}
+
+/// Standard deviation of the finite values.
+pub fn finite_std(v: &[f32]) -> f32 {
+    let (mut s, mut s2, mut n) = (0.0f64, 0.0f64, 0usize);
+    for &x in v {
+        if x.is_finite() {
+            s += x as f64;
+            s2 += (x as f64) * (x as f64);
+            n += 1;
+        }
+    }
+    if n < 2 {
+        return 0.0;
+    }
+    let m = s / n as f64;
+    ((s2 / n as f64 - m * m).max(0.0)).sqrt() as f32
+}
+
 /// Root-mean-square difference of two normalised profiles.
 #[inline]
 pub fn profile_rms(a: &[f32], b: &[f32]) -> f32 {

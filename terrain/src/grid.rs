@@ -136,47 +136,81 @@ impl Grid<f32> {
 /// Exact squared Euclidean distance transform (Felzenszwalb & Huttenlocher 2012)
 /// to the nearest `true` cell of `seeds`. Cells with no seed at all get `f32::INFINITY`.
 pub fn distance_transform(seeds: &Grid<bool>) -> Grid<f32> {
-    let (w, h) = (seeds.width, seeds.height);
+    distance_transform_by(seeds.width, seeds.height, |i| seeds.data[i])
+}
+
+/// [`distance_transform`] of the cells for which `seed(flat index)` holds, without
+/// building a mask first. Exact (Felzenszwalb and Huttenlocher 2012), linear in the
+/// cell count: columns are processed 16 at a time, so the strided pass reads whole
+/// cache lines, and the lower envelope is computed in f64, so coordinates of large
+/// grids (q² beyond f32's 24-bit mantissa) stay exact.
+pub fn distance_transform_by(w: usize, h: usize, seed: impl Fn(usize) -> bool + Sync) -> Grid<f32> {
     const INF: f32 = 1e20;
-    let mut f: Vec<f32> = seeds.data.iter().map(|&s| if s { 0.0 } else { INF }).collect();
+    const LANES: usize = 16;
+    let mut f: Vec<f32> = (0..w * h).map(|i| if seed(i) { 0.0 } else { INF }).collect();
     let n = w.max(h);
+    let mut scratch = Dt1dScratch::new(n);
+    let mut block = vec![0f32; h * LANES];
     let mut d = vec![0f32; n];
-    let mut v = vec![0usize; n];
-    let mut z = vec![0f32; n + 1];
     let mut col = vec![0f32; n];
-    // columns
-    for x in 0..w {
+    // columns, LANES at a time
+    for x0 in (0..w).step_by(LANES) {
+        let lanes = LANES.min(w - x0);
         for y in 0..h {
-            col[y] = f[y * w + x];
+            block[y * LANES..y * LANES + lanes].copy_from_slice(&f[y * w + x0..y * w + x0 + lanes]);
         }
-        dt1d(&col[..h], &mut d[..h], &mut v, &mut z);
+        for l in 0..lanes {
+            for y in 0..h {
+                col[y] = block[y * LANES + l];
+            }
+            dt1d(&col[..h], &mut d[..h], &mut scratch);
+            for y in 0..h {
+                block[y * LANES + l] = d[y];
+            }
+        }
         for y in 0..h {
-            f[y * w + x] = d[y];
+            f[y * w + x0..y * w + x0 + lanes].copy_from_slice(&block[y * LANES..y * LANES + lanes]);
         }
     }
     // rows
     for y in 0..h {
         col[..w].copy_from_slice(&f[y * w..(y + 1) * w]);
-        dt1d(&col[..w], &mut d[..w], &mut v, &mut z);
+        dt1d(&col[..w], &mut d[..w], &mut scratch);
         f[y * w..(y + 1) * w].copy_from_slice(&d[..w]);
     }
-    let data = f.into_iter().map(|s| if s >= INF * 0.5 { f32::INFINITY } else { s.sqrt() }).collect();
-    Grid::from_vec(w, h, data)
+    for v in f.iter_mut() {
+        *v = if *v >= INF * 0.5 { f32::INFINITY } else { v.sqrt() };
+    }
+    Grid::from_vec(w, h, f)
 }
 
-fn dt1d(f: &[f32], d: &mut [f32], v: &mut [usize], z: &mut [f32]) {
+struct Dt1dScratch {
+    v: Vec<usize>,
+    z: Vec<f64>,
+}
+
+impl Dt1dScratch {
+    fn new(n: usize) -> Self {
+        Dt1dScratch { v: vec![0; n], z: vec![0.0; n + 1] }
+    }
+}
+
+/// 1-D squared distance transform of `f` (lower envelope of parabolas) into `d`.
+fn dt1d(f: &[f32], d: &mut [f32], sc: &mut Dt1dScratch) {
     let n = f.len();
     if n == 0 {
         return;
     }
+    let (v, z) = (&mut sc.v, &mut sc.z);
+    let fq = |q: usize| f[q] as f64 + (q * q) as f64;
     let mut k = 0usize;
     v[0] = 0;
-    z[0] = f32::NEG_INFINITY;
-    z[1] = f32::INFINITY;
+    z[0] = f64::NEG_INFINITY;
+    z[1] = f64::INFINITY;
     for q in 1..n {
         loop {
             let p = v[k];
-            let s = ((f[q] + (q * q) as f32) - (f[p] + (p * p) as f32)) / (2.0 * q as f32 - 2.0 * p as f32);
+            let s = (fq(q) - fq(p)) / (2.0 * q as f64 - 2.0 * p as f64);
             if s <= z[k] && k > 0 {
                 k -= 1;
                 continue;
@@ -184,25 +218,25 @@ fn dt1d(f: &[f32], d: &mut [f32], v: &mut [usize], z: &mut [f32]) {
             if s <= z[k] {
                 // k == 0: replace
                 v[0] = q;
-                z[0] = f32::NEG_INFINITY;
-                z[1] = f32::INFINITY;
+                z[0] = f64::NEG_INFINITY;
+                z[1] = f64::INFINITY;
                 break;
             }
             k += 1;
             v[k] = q;
             z[k] = s;
-            z[k + 1] = f32::INFINITY;
+            z[k + 1] = f64::INFINITY;
             break;
         }
     }
     k = 0;
     for (q, dq) in d.iter_mut().enumerate().take(n) {
-        while z[k + 1] < q as f32 {
+        while z[k + 1] < q as f64 {
             k += 1;
         }
         let p = v[k];
-        let dd = q as f32 - p as f32;
-        *dq = dd * dd + f[p];
+        let dd = q as f64 - p as f64;
+        *dq = (dd * dd + f[p] as f64) as f32;
     }
 }
 

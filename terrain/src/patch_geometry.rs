@@ -22,6 +22,26 @@ pub const FEATURE_VARIANTS: [Variant; 10] =
 /// all exact pixel permutations.
 pub const FEATURELESS_VARIANTS: [Variant; 6] = [Variant(0), Variant(2), Variant(4), Variant(6), Variant(8), Variant(9)];
 
+/// Index maps of the 6 exact featureless variants: output patch cell → stored
+/// candidate cell, rotating about the patch's geometric centre so every map is an
+/// exact permutation (no resampling, so hole filling keeps the source's roughness).
+pub fn variant_maps(p: usize) -> Vec<Vec<u32>> {
+    let c = (p as f32 - 1.0) / 2.0;
+    FEATURELESS_VARIANTS
+        .iter()
+        .map(|v| {
+            (0..p * p)
+                .map(|k| {
+                    let (i, j) = ((k % p) as f32 - c, (k / p) as f32 - c);
+                    let (sx, sy) = v.inverse(i, j);
+                    let (si, sj) = ((c + sx).round() as usize, (c + sy).round() as usize);
+                    (sj.min(p - 1) * p + si.min(p - 1)) as u32
+                })
+                .collect()
+        })
+        .collect()
+}
+
 impl Variant {
     /// Maps an offset in the candidate's source frame to the output frame.
     pub fn forward(self, x: f32, y: f32) -> (f32, f32) {
@@ -260,6 +280,20 @@ pub fn patch_reach(size: usize) -> usize {
 mod tests {
     use super::*;
     use crate::feature_extraction::FeatureGraph;
+
+    #[test]
+    fn featureless_variant_maps_are_distinct_permutations() {
+        let maps = variant_maps(8);
+        for m in &maps {
+            let mut v = m.clone();
+            v.sort_unstable();
+            v.dedup();
+            assert_eq!(v.len(), 64);
+        }
+        for (i, a) in maps.iter().enumerate() {
+            assert!(maps[i + 1..].iter().all(|b| a != b), "variant {i} repeats another");
+        }
+    }
 
     #[test]
     fn variants_invert_and_map_angles() {

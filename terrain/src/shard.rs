@@ -56,15 +56,56 @@ pub struct BestSet {
     pub entries: Vec<ScoredCandidate>,
 }
 
-/// A featureless patch for hole filling (Crause §7.1), stored in variant 0;
-/// the 6 exact variants are index permutations applied by the scorer.
+/// One hole-fill target as a worker scores it (Crause 2015 ch. 7): the known cells of
+/// the target window, sampled, and what the coordinator knows around it. The worker
+/// scores its shard's featureless candidates in their 6 exact variants against it;
+/// the coordinator never holds the featureless pool.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct FeaturelessCandidate {
+pub struct FillQuery {
+    /// The target's index in its batch.
+    pub id: u32,
+    /// Known output cells of the patch-sized window: (cell index in the patch, height).
+    pub samples: Vec<(u32, f32)>,
+    /// Relief that makes the overlap cost unitless (metres, > 0).
+    pub relief: f32,
+    /// Noise variances of the window's known part; `None` when too little is known.
+    pub noise: Option<[f32; crate::costs::NOISE_LEVELS]>,
+    /// Share of the window's filled cells that each source supplied (coherence bonus).
+    pub coherence: Vec<(u32, f32)>,
+    /// Source regions placed within the repetition radius: (source, x, y).
+    pub avoid: Vec<(u32, u32, u32)>,
+}
+
+/// A scored featureless candidate: identity, cost, and its pixels in the variant
+/// (patch x patch, output frame, metres).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FillCandidate {
     pub source: u32,
     pub x: u32,
     pub y: u32,
+    /// Index into `FEATURELESS_VARIANTS`.
+    pub variant: u8,
+    pub cost: f32,
     pub pixels: Vec<f32>,
-    pub noise: [f32; crate::costs::NOISE_LEVELS],
+}
+
+impl FillCandidate {
+    /// The total order that breaks ties: (cost, source, position, variant).
+    pub fn order(&self, other: &Self) -> std::cmp::Ordering {
+        self.cost.total_cmp(&other.cost).then((self.source, self.y, self.x, self.variant).cmp(&(
+            other.source,
+            other.y,
+            other.x,
+            other.variant,
+        )))
+    }
+}
+
+/// The k best featureless candidates of one shard for one fill target.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FillBestSet {
+    pub target: u32,
+    pub entries: Vec<FillCandidate>,
 }
 
 /// What a shard tells about one of its sources.
@@ -77,6 +118,10 @@ pub struct SourceInfo {
     pub feature_nodes: [usize; 2],
     pub featureless: usize,
     pub cache_hit: bool,
+    /// Relief (standard deviation, metres) of each featureless candidate, so the
+    /// coordinator can normalise fill costs without holding the pool.
+    #[serde(default)]
+    pub featureless_relief: Vec<f32>,
 }
 
 /// An exemplar a shard could not use, and why.
@@ -106,6 +151,7 @@ pub trait ShardScorer: Send + Sync {
     /// Round 1 for a block of user patches: for every user patch and every source of
     /// the shard, the `k` best candidates in the total order.
     fn score_block(&self, block: &[UserPatchQuery], k: usize) -> Result<Vec<BestSet>, ShardError>;
-    /// The shard's featureless candidates for hole filling.
-    fn featureless_pool(&self) -> Result<Vec<FeaturelessCandidate>, ShardError>;
+    /// Hole-fill scoring for a batch of targets: for every target, the `k` best of the
+    /// shard's featureless candidates in their 6 variants, in the total order.
+    fn score_fill(&self, targets: &[FillQuery], seed: u64, k: usize) -> Result<Vec<FillBestSet>, ShardError>;
 }

@@ -261,10 +261,36 @@ impl Worker for WorkerService {
         Ok(Response::new(tokio_stream::wrappers::ReceiverStream::new(rx)))
     }
 
-    async fn featureless_pool(&self, r: Request<v1::PoolRequest>) -> Result<Response<v1::PoolReply>, Status> {
-        let shard = find_shard(&self.shards, &r.into_inner().shard_key)?;
-        let pool = shard.featureless_pool().map_err(shard_status)?;
-        Ok(Response::new(v1::PoolReply { candidates: pool.iter().map(pool_to_wire).collect() }))
+    async fn score_fill(&self, r: Request<v1::FillRequest>) -> Result<Response<v1::FillReply>, Status> {
+        let msg = r.into_inner();
+        if msg.fill_version != ridgeline_proto::FILL_VERSION {
+            return Err(Status::invalid_argument(format!(
+                "fill message version {} (this worker speaks {})",
+                msg.fill_version,
+                ridgeline_proto::FILL_VERSION
+            )));
+        }
+        let shard = find_shard(&self.shards, &msg.shard_key)?;
+        if msg.k == 0 || msg.k > 64 || msg.targets.len() > 4096 {
+            return Err(Status::invalid_argument("k must be within 1..=64 and a batch at most 4096 fill targets"));
+        }
+        let patch = shard.patch();
+        let targets = msg
+            .targets
+            .into_iter()
+            .map(|t| fill_target_from_wire(t, patch))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(Status::invalid_argument)?;
+        let (pool, k, seed, n) = (self.pool.clone(), msg.k as usize, msg.seed, targets.len());
+        let sets = tokio::task::spawn_blocking(move || pool.install(|| shard.score_fill(&targets, seed, k)))
+            .await
+            .map_err(|e| Status::internal(e.to_string()))?
+            .map_err(shard_status)?;
+        tracing::debug!(targets = n, "fill batch answered");
+        Ok(Response::new(v1::FillReply {
+            fill_version: ridgeline_proto::FILL_VERSION,
+            best_sets: sets.iter().map(fill_set_to_wire).collect(),
+        }))
     }
 }
 

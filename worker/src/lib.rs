@@ -7,6 +7,7 @@
 pub mod candidates;
 pub mod exemplar_store;
 pub mod feature_cache;
+pub mod fill_scoring;
 pub mod grpc_service;
 pub mod patch_matching;
 
@@ -16,7 +17,7 @@ pub use feature_cache::FeatureCache;
 use rayon::prelude::*;
 use ridgeline_terrain::library::ExemplarSpec;
 use ridgeline_terrain::shard::{
-    BestSet, FeaturelessCandidate, ShardError, ShardScorer, SkippedExemplar, SourceInfo, UserPatchQuery,
+    BestSet, FillBestSet, FillQuery, ShardError, ShardScorer, SkippedExemplar, SourceInfo, UserPatchQuery,
 };
 use std::sync::Arc;
 
@@ -26,6 +27,8 @@ pub struct InProcessShard {
     sources: Arc<Vec<Source>>,
     skipped: Vec<SkippedExemplar>,
     patch: usize,
+    /// Index maps of the 6 featureless variants.
+    maps: Arc<Vec<Vec<u32>>>,
 }
 
 impl InProcessShard {
@@ -53,7 +56,8 @@ impl InProcessShard {
                 }
             }
         }
-        InProcessShard { sources: Arc::new(sources), skipped, patch: cfg.patch }
+        let maps = Arc::new(ridgeline_terrain::patch_geometry::variant_maps(cfg.patch));
+        InProcessShard { sources: Arc::new(sources), skipped, patch: cfg.patch, maps }
     }
 
     /// Replaces file names of the form `{content hash}.{ext}` (how a worker stores
@@ -69,6 +73,11 @@ impl InProcessShard {
         }
         self.skipped.iter_mut().for_each(|s| rename(&mut s.name));
         self
+    }
+
+    /// Patch side in cells.
+    pub fn patch(&self) -> usize {
+        self.patch
     }
 
     pub fn source_data(&self) -> &[Source] {
@@ -88,6 +97,7 @@ impl ShardScorer for InProcessShard {
                 feature_nodes: [s.nodes[0].len(), s.nodes[1].len()],
                 featureless: s.featureless.len(),
                 cache_hit: s.cache_hit,
+                featureless_relief: s.featureless.iter().map(|f| ridgeline_terrain::costs::finite_std(&f.pixels)).collect(),
             })
             .collect()
     }
@@ -119,19 +129,11 @@ impl ShardScorer for InProcessShard {
             .collect())
     }
 
-    fn featureless_pool(&self) -> Result<Vec<FeaturelessCandidate>, ShardError> {
-        Ok(self
-            .sources
-            .iter()
-            .flat_map(|s| {
-                s.featureless.iter().map(move |f| FeaturelessCandidate {
-                    source: s.id,
-                    x: f.x,
-                    y: f.y,
-                    pixels: f.pixels.clone(),
-                    noise: f.noise,
-                })
-            })
-            .collect())
+    fn score_fill(&self, targets: &[FillQuery], seed: u64, k: usize) -> Result<Vec<FillBestSet>, ShardError> {
+        if k == 0 {
+            return Err(ShardError::BadRequest("k must be at least 1".into()));
+        }
+        fill_scoring::validate(targets, self.patch).map_err(ShardError::BadRequest)?;
+        Ok(targets.par_iter().map(|q| fill_scoring::best_fill_set(&self.sources, &self.maps, q, seed, k, self.patch)).collect())
     }
 }

@@ -34,12 +34,18 @@ impl UnionFind {
 
 /// Kruskal's algorithm, heaviest segment first: the kept segments form a maximum
 /// spanning forest, i.e. every cycle loses its lightest (least important) segment.
+/// The union-find covers only the cells segments touch (numbered in raster order),
+/// so its memory follows the feature cells, not the grid.
 pub fn maximum_spanning_forest(width: usize, height: usize, mut segs: Vec<Segment>) -> FeatureGraph {
     segs.sort_by(|x, y| y.weight.total_cmp(&x.weight).then(x.a.cmp(&y.a)).then(x.b.cmp(&y.b)));
-    let mut uf = UnionFind((0..(width * height) as u32).collect());
+    let mut cells: Vec<u32> = segs.iter().flat_map(|s| [s.a, s.b]).collect();
+    cells.sort_unstable();
+    cells.dedup();
+    let id = |c: u32| cells.binary_search(&c).map(|i| i as u32).unwrap_or(0);
+    let mut uf = UnionFind((0..cells.len() as u32).collect());
     let mut g = FeatureGraph::empty(width, height);
     for s in segs {
-        let (ra, rb) = (uf.find(s.a), uf.find(s.b));
+        let (ra, rb) = (uf.find(id(s.a)), uf.find(id(s.b)));
         if ra != rb {
             uf.0[ra as usize] = rb;
             g.add_edge(s.a, s.b);

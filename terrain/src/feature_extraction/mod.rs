@@ -171,10 +171,17 @@ pub fn target_connection(h: &Grid<f32>, cand: &Grid<bool>) -> Vec<Segment> {
 /// Runs the whole PPA for `kind` on `h` (heights of any unit; valleys use `-h`).
 pub fn extract_features(h: &Grid<f32>, kind: FeatureKind, p: &PpaParams) -> FeatureGraph {
     let s = kind.sign();
-    let field = h.map(|v| if v.is_finite() { v * s } else { f32::NAN });
+    extract_ridges(h.map(|v| if v.is_finite() { v * s } else { f32::NAN }), p)
+}
+
+/// The whole PPA for ridges of `field`, taking the field by value (no copy).
+pub fn extract_ridges(field: Grid<f32>, p: &PpaParams) -> FeatureGraph {
     let cand = profile_recognition(&field, p);
     let segs = target_connection(&field, &cand);
-    let mut g = forest::maximum_spanning_forest(h.width, h.height, segs);
+    drop(cand);
+    let (w, h) = (field.width, field.height);
+    drop(field);
+    let mut g = forest::maximum_spanning_forest(w, h, segs);
     g.reduce_branches(p.min_branch, p.passes);
     g
 }

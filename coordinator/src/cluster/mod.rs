@@ -1,0 +1,66 @@
+//! The coordinator's side of the cluster (design.md, Cluster; Crause 2015 §6.6): the
+//! exemplar library is split into shards balanced by estimated candidate count, each
+//! shard is assigned to a gRPC worker, and [`RemoteShard`] implements the same
+//! `ShardScorer` trait as the in-process shard, so the pipeline does not know the
+//! difference.
+//!
+//! Exemplar bytes travel from the coordinator to a worker only when the worker does not
+//! hold them already (by SHA-256), so a second job on the same library sends nothing.
+//! Round-1 blocks go over one long-lived bidirectional stream per shard.
+//!
+//! Failures: every call has a deadline; transient errors are retried twice with
+//! backoff on the same worker; then the worker is marked dead, the shard moves to the
+//! next live worker (uploading and loading there) and the first unanswered block is
+//! sent again. Best-sets depend only on the shard's exemplars and the query, so the
+//! output bytes do not change. With no live worker left the call fails with a clear
+//! error; nothing waits without a deadline.
+
+//!
+//! Layout: [`connection`] (channels, authentication, liveness), [`remote_shard`] (the
+//! `ShardScorer` over gRPC, with retries and failover), [`planning`] (which exemplars
+//! form which shard).
+
+pub mod connection;
+pub mod planning;
+pub mod remote_shard;
+
+pub use connection::{Cluster, TransferStats};
+pub use planning::{plan_shards, remote_exemplars, remote_shards, RemoteExemplar};
+pub use remote_shard::RemoteShard;
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+/// How the coordinator reaches its workers.
+#[derive(Debug, Clone)]
+pub struct ClusterConfig {
+    pub workers: Vec<String>,
+    pub token: Option<String>,
+    /// CA certificate (PEM) for `https://` workers.
+    pub tls_ca: Option<PathBuf>,
+    /// Deadline of one round-1 block or pool call.
+    pub call_timeout: Duration,
+    /// Deadline of uploading and loading a shard (feature extraction may run).
+    pub load_timeout: Duration,
+}
+
+impl Default for ClusterConfig {
+    fn default() -> Self {
+        ClusterConfig {
+            workers: Vec::new(),
+            token: None,
+            tls_ca: None,
+            call_timeout: Duration::from_secs(120),
+            load_timeout: Duration::from_secs(1800),
+        }
+    }
+}
+
+/// Errors setting up a cluster.
+#[derive(Debug, thiserror::Error)]
+pub enum ClusterError {
+    #[error("no live worker: {0}")]
+    NoLiveWorker(String),
+    #[error("{0}")]
+    Setup(String),
+}

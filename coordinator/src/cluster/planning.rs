@@ -1,0 +1,163 @@
+//! Shard planning: which exemplars form which worker's shard. Exemplars are hashed
+//! (their content names them on the workers) and split into one shard per live worker,
+//! balanced by candidate count — known from earlier jobs, else estimated from area.
+
+use super::connection::Cluster;
+use super::remote_shard::RemoteShard;
+use ridgeline_proto::v1;
+use ridgeline_terrain::library::ExemplarSpec;
+use ridgeline_terrain::shard::{ShardError, ShardScorer};
+use sha2::{Digest, Sha256};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// One exemplar as the cluster sees it.
+#[derive(Debug, Clone)]
+pub struct RemoteExemplar {
+    pub wire: v1::ExemplarRef,
+    pub path: PathBuf,
+    pub extension: String,
+}
+
+/// Hashes the exemplars of a library for upload (SHA-256 of each file).
+pub fn remote_exemplars(items: &[(u32, ExemplarSpec)]) -> Result<Vec<RemoteExemplar>, ridgeline_terrain::TerrainError> {
+    items
+        .iter()
+        .map(|(id, spec)| {
+            let bytes = std::fs::read(&spec.path)
+                .map_err(|source| ridgeline_terrain::TerrainError::Read { path: spec.path.clone(), cause: source.into() })?;
+            let hash: String = Sha256::digest(&bytes).iter().map(|b| format!("{b:02x}")).collect();
+            Ok(RemoteExemplar {
+                wire: v1::ExemplarRef {
+                    source: *id,
+                    name: spec.name(),
+                    content_hash: hash,
+                    cell_size_m: spec.cell_size_m,
+                    to_metres: spec.to_metres,
+                    nodata: spec.nodata,
+                },
+                extension: spec.path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default(),
+                path: spec.path.clone(),
+            })
+        })
+        .collect()
+}
+
+/// Splits items of the given weights into `n` shards of near-equal total weight
+/// (longest-processing-time-first greedy; ties by index). Returns item indices.
+pub fn plan_shards(weights: &[u64], n: usize) -> Vec<Vec<usize>> {
+    let n = n.max(1);
+    let mut order: Vec<usize> = (0..weights.len()).collect();
+    order.sort_by(|&a, &b| weights[b].cmp(&weights[a]).then(a.cmp(&b)));
+    let mut load = vec![0u64; n];
+    let mut shards: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for i in order {
+        let s = (0..n).min_by_key(|&s| (load[s], s)).unwrap_or(0);
+        load[s] += weights[i];
+        shards[s].push(i);
+    }
+    for s in &mut shards {
+        s.sort_unstable();
+    }
+    shards
+}
+
+/// An exemplar's area in output cells, from its header.
+fn area_estimate(spec: &ExemplarSpec, out_cell: Option<f32>) -> u64 {
+    let (w, h) = header_size(spec).unwrap_or((1, 1));
+    let f = match (spec.cell_size_m.or_else(|| ridgeline_terrain::dem_formats::probe_cell_size(&spec.path)), out_cell) {
+        (Some(s), Some(o)) if o > 0.0 => (s / o) as f64,
+        _ => 1.0,
+    };
+    ((w as f64 * f) * (h as f64 * f)).max(1.0) as u64
+}
+
+fn header_size(spec: &ExemplarSpec) -> Option<(usize, usize)> {
+    let ext = spec.path.extension()?.to_string_lossy().to_ascii_lowercase();
+    if ext == "png" {
+        let r = image::ImageReader::open(&spec.path).ok()?.with_guessed_format().ok()?;
+        let (w, h) = r.into_dimensions().ok()?;
+        return Some((w as usize, h as usize));
+    }
+    let d = ridgeline_terrain::dem_formats::read_dem(&spec.path, None, ridgeline_terrain::io::DEFAULT_MAX_SIDE).ok()?;
+    Some((d.heights.width, d.heights.height))
+}
+
+/// Candidate counts per exemplar seen by earlier jobs, kept in the coordinator's cache
+/// folder (`candidate-counts.json`, keyed by content hash, patch and cell size).
+fn counts_path(cache: &Path) -> PathBuf {
+    cache.join("candidate-counts.json")
+}
+
+fn count_key(e: &RemoteExemplar, patch: usize, out_cell: Option<f32>) -> String {
+    format!("{}:{patch}:{out_cell:?}", e.wire.content_hash)
+}
+
+/// Loads a library onto a cluster: one shard per live worker, balanced by candidate
+/// count. The candidate count of an exemplar is known only once a worker has extracted
+/// its features, so a library's first job balances by area at the output cell size (a
+/// proxy: candidates grow with area) and records the true counts; later jobs balance
+/// by those (areas of new exemplars are scaled to candidate units by the known ratio).
+pub fn remote_shards(
+    cluster: &Arc<Cluster>,
+    items: &[(u32, ExemplarSpec)],
+    patch: usize,
+    out_cell: Option<f32>,
+    cache: Option<&Path>,
+) -> Result<Vec<Arc<dyn ShardScorer>>, ShardError> {
+    let live = cluster.live();
+    let ex = remote_exemplars(items).map_err(|e| ShardError::BadRequest(e.to_string()))?;
+    let mut known: BTreeMap<String, u64> =
+        cache.and_then(|c| std::fs::read(counts_path(c)).ok()).and_then(|b| serde_json::from_slice(&b).ok()).unwrap_or_default();
+    let areas: Vec<u64> = items.iter().map(|(_, s)| area_estimate(s, out_cell)).collect();
+    let ratios: Vec<f64> = ex
+        .iter()
+        .zip(&areas)
+        .filter_map(|(e, &a)| known.get(&count_key(e, patch, out_cell)).map(|&c| c as f64 / a as f64))
+        .collect();
+    let ratio = if ratios.is_empty() { 1.0 } else { ratios.iter().sum::<f64>() / ratios.len() as f64 };
+    let weights: Vec<u64> = ex
+        .iter()
+        .zip(&areas)
+        .map(|(e, &a)| known.get(&count_key(e, patch, out_cell)).copied().unwrap_or(((a as f64) * ratio).max(1.0) as u64))
+        .collect();
+    let mut shards: Vec<Arc<dyn ShardScorer>> = Vec::new();
+    for (i, part) in plan_shards(&weights, live.len()).into_iter().enumerate() {
+        if part.is_empty() {
+            continue;
+        }
+        let shard_ex: Vec<RemoteExemplar> = part.iter().map(|&k| ex[k].clone()).collect();
+        let shard = RemoteShard::assign(cluster.clone(), i, shard_ex, patch, out_cell, live[i])?;
+        for s in shard.sources() {
+            if let Some(e) = ex.iter().find(|e| e.wire.source == s.source) {
+                let count = (s.feature_nodes[0] + s.feature_nodes[1]) * 10 + s.featureless * 6;
+                known.insert(count_key(e, patch, out_cell), count.max(1) as u64);
+            }
+        }
+        shards.push(Arc::new(shard));
+    }
+    if let Some(c) = cache {
+        if std::fs::create_dir_all(c).is_ok() {
+            if let Ok(b) = serde_json::to_vec(&known) {
+                let _ = ridgeline_terrain::io::write_atomic(&counts_path(c), &b);
+            }
+        }
+    }
+    Ok(shards)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shards_balance_weight() {
+        let w = [4000u64, 1000, 1000, 1000, 1000, 250];
+        let plan = plan_shards(&w, 2);
+        let total = |s: &Vec<usize>| s.iter().map(|&i| w[i]).sum::<u64>();
+        assert_eq!(total(&plan[0]) + total(&plan[1]), 8250);
+        assert!(total(&plan[0]).abs_diff(total(&plan[1])) <= 250, "{plan:?}");
+        assert!(plan.iter().all(|s| s.windows(2).all(|p| p[0] < p[1])));
+    }
+}

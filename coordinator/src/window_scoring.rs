@@ -1,0 +1,105 @@
+//! Window scoring: the sequence round 2 (`selection`) and hole filling share — open
+//! the target window on the canvas, read what is there, measure its relief and noise,
+//! rank the candidates, run the graph cut on the five cheapest and merge the winner
+//! (Crause 2015 listing 6.6 and §7.3, Tasse 2012 §4.2–4.3). The two stages differ only
+//! in how they rank candidates; everything else has its home here.
+//!
+//! The graph-cut cost is *added* to the ranking cost (normalised per overlap edge and
+//! by the relief), rather than used alone, so the ranking still counts among the five.
+
+use crate::canvas::{Canvas, Placement, Win};
+use crate::graph_cut::{Force, Seam};
+use crate::merge::{seam_for, MergeStats};
+use rayon::prelude::*;
+use ridgeline_terrain::costs::{finite_std, noise_variances, NOISE_LEVELS};
+
+/// Candidates that go through the graph cut.
+pub const GRAPH_CUT_SET: usize = 5;
+
+/// A target location on the canvas and what the output holds around it.
+pub struct Target {
+    pub cx: usize,
+    pub cy: usize,
+    pub win: Win,
+    /// The output over the window (NaN = empty).
+    pub old: Vec<f32>,
+    /// The same as a patch-sized array (NaN = empty or outside the output).
+    pub full_old: Vec<f32>,
+    /// Filled cells of the window.
+    pub filled: usize,
+    /// Noise variances of the known part, when at least a quarter of it is known.
+    pub noise: Option<[f32; NOISE_LEVELS]>,
+}
+
+impl Target {
+    /// Opens the window of a patch centred at global (cx, cy).
+    pub fn at(canvas: &Canvas, cx: usize, cy: usize) -> Target {
+        let p = canvas.patch;
+        let win = canvas.window(cx, cy);
+        let old = canvas.old_values(&win);
+        let mut full_old = vec![f32::NAN; p * p];
+        for j in 0..win.h {
+            let row = (j + win.py) * p + win.px;
+            full_old[row..row + win.w].copy_from_slice(&old[j * win.w..(j + 1) * win.w]);
+        }
+        let filled = old.iter().filter(|v| !v.is_nan()).count();
+        let noise = if filled * 4 >= p * p { noise_variances(&full_old, p) } else { None };
+        Target { cx, cy, win, old, full_old, filled, noise }
+    }
+
+    /// Relief that makes overlap costs unitless: the known part's standard deviation,
+    /// at least `floor` (the typical candidate's), never zero.
+    pub fn relief(&self, floor: f32) -> f32 {
+        finite_std(&self.full_old).max(floor).max(1e-3)
+    }
+}
+
+/// The result of choosing a patch for one location.
+pub struct Choice {
+    pub index: usize,
+    pub seam: Seam,
+    pub new: Vec<f32>,
+    pub total: f32,
+}
+
+/// Runs the graph cut on the `GRAPH_CUT_SET` first of `order` (indices into `pixels`,
+/// already ranked) and returns the best by ranking cost + normalised cut cost.
+pub fn graph_cut_choice(
+    win: &Win,
+    old: &[f32],
+    force: &[Force],
+    order: &[(f32, usize)],
+    pixels: &(dyn Fn(usize) -> Vec<f32> + Sync),
+    relief: f32,
+) -> Option<Choice> {
+    let top: Vec<(f32, usize)> = order.iter().take(GRAPH_CUT_SET).copied().collect();
+    let results: Vec<Choice> = top
+        .par_iter()
+        .map(|&(total, index)| {
+            let new = win.crop(&pixels(index));
+            let seam = seam_for(win, old, &new, force);
+            let norm = if seam.edges > 0 { seam.cost as f32 / (seam.edges as f32 * relief) } else { 0.0 };
+            Choice { index, seam, new, total: total + norm }
+        })
+        .collect();
+    results.into_iter().min_by(|a, b| a.total.total_cmp(&b.total).then(a.index.cmp(&b.index)))
+}
+
+/// The shared ending of both stages: graph cut of the best-ranked candidates of
+/// `order` at `target` (cells within `keep_radius` of the centre must take the new
+/// patch), then the gradient-domain merge of the winner, recorded as
+/// `placement(index)`. Returns the chosen index and the merge's statistics.
+pub fn cut_and_merge(
+    canvas: &mut Canvas,
+    target: &Target,
+    order: &[(f32, usize)],
+    pixels: &(dyn Fn(usize) -> Vec<f32> + Sync),
+    relief: f32,
+    keep_radius: f32,
+    placement: impl FnOnce(usize) -> Placement,
+) -> Option<(usize, MergeStats)> {
+    let force = canvas.forces(&target.win, &target.old, keep_radius);
+    let choice = graph_cut_choice(&target.win, &target.old, &force, order, pixels, relief)?;
+    let stats = canvas.merge(&target.win, &choice.new, &choice.seam, placement(choice.index));
+    Some((choice.index, stats))
+}

@@ -1,0 +1,145 @@
+//! Hole-fill candidate scoring, the worker's part of hole filling (Crause 2015 §7.3,
+//! Tasse 2012 §4.2.2): for a batch of fill targets, every featureless candidate of the
+//! shard in each of its 6 exact variants is scored against the target window's known
+//! cells, and the k best per target come back with their pixels. The coordinator
+//! merges the shards' best-sets, runs the graph cut on the five cheapest and merges
+//! the winner, so it never holds the featureless pool of a large library.
+//!
+//! Cost (the same terms the coordinator used when it scored fills itself):
+//! `ALPHA_O * overlap / relief + ALPHA_N * noise − BETA_C * coherence + repetition +
+//! seed jitter`, where the overlap is the RMS height difference with its mean removed
+//! (the gradient-domain merge hides a constant offset) over the sampled known cells,
+//! summed in f64 in sample order, so the value does not depend on the thread count or
+//! on which worker holds the shard.
+
+use crate::exemplar_store::Source;
+use rayon::prelude::*;
+use ridgeline_terrain::costs::{jitter, noise_cost, ALPHA_N, ALPHA_O, BETA_C, REPEAT_PENALTY, SEED_JITTER};
+use ridgeline_terrain::shard::{FillBestSet, FillCandidate, FillQuery};
+
+/// Scores one target against the featureless candidates of `sources` (variant maps
+/// from `variant_maps(patch)`) and keeps the `k` best in the total order.
+pub fn best_fill_set(sources: &[Source], maps: &[Vec<u32>], q: &FillQuery, seed: u64, k: usize, patch: usize) -> FillBestSet {
+    let coherence = |source: u32| q.coherence.iter().find(|c| c.0 == source).map(|c| c.1).unwrap_or(0.0);
+    let half = (patch / 2) as i64;
+    let mut scored: Vec<(f32, u32, u32, u32, u8, usize, usize)> = sources
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(si, s)| {
+            let coh = coherence(s.id);
+            s.featureless.iter().enumerate().flat_map(move |(ci, c)| {
+                let rep = q.avoid.iter().any(|&(src, x, y)| {
+                    src == s.id && (x as i64 - c.x as i64).abs() < half && (y as i64 - c.y as i64).abs() < half
+                });
+                let cn = q.noise.map(|u| noise_cost(&u, &c.noise)).unwrap_or(0.0);
+                maps.iter().enumerate().map(move |(vi, map)| {
+                    let (mut sum, mut sum2) = (0f64, 0f64);
+                    for &(i, v) in &q.samples {
+                        let d = (c.pixels[map[i as usize] as usize] - v) as f64;
+                        sum += d;
+                        sum2 += d * d;
+                    }
+                    let n = q.samples.len().max(1) as f64;
+                    let co = ((sum2 / n - (sum / n) * (sum / n)).max(0.0)).sqrt() as f32 / q.relief;
+                    let j = SEED_JITTER * jitter(seed, &[s.id as u64, c.x as u64, c.y as u64, vi as u64, 7]);
+                    let cost = ALPHA_O * co + ALPHA_N * cn - BETA_C * coh + if rep { REPEAT_PENALTY } else { 0.0 } + j;
+                    (cost, s.id, c.y, c.x, vi as u8, si, ci)
+                })
+            })
+        })
+        .collect();
+    let order = |a: &(f32, u32, u32, u32, u8, usize, usize), b: &(f32, u32, u32, u32, u8, usize, usize)| {
+        a.0.total_cmp(&b.0).then((a.1, a.2, a.3, a.4).cmp(&(b.1, b.2, b.3, b.4)))
+    };
+    if scored.len() > k {
+        scored.select_nth_unstable_by(k, order);
+        scored.truncate(k);
+    }
+    scored.sort_by(order);
+    let entries = scored
+        .into_iter()
+        .map(|(cost, source, y, x, vi, si, ci)| {
+            let c = &sources[si].featureless[ci];
+            FillCandidate {
+                source,
+                x,
+                y,
+                variant: vi,
+                cost,
+                pixels: maps[vi as usize].iter().map(|&m| c.pixels[m as usize]).collect(),
+            }
+        })
+        .collect();
+    FillBestSet { target: q.id, entries }
+}
+
+/// Checks a batch of fill targets before scoring: sample indices inside the patch,
+/// finite values, a positive relief.
+pub fn validate(targets: &[FillQuery], patch: usize) -> Result<(), String> {
+    for q in targets {
+        if q.samples.iter().any(|&(i, v)| i as usize >= patch * patch || !v.is_finite()) {
+            return Err(format!("fill target {}: a sample lies outside the patch or is not finite", q.id));
+        }
+        if !(q.relief.is_finite() && q.relief > 0.0) {
+            return Err(format!("fill target {}: relief must be positive", q.id));
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::candidates::FeaturelessPatch;
+    use ridgeline_terrain::costs::noise_variances;
+    use ridgeline_terrain::grid::Grid;
+    use ridgeline_terrain::patch_geometry::variant_maps;
+
+    fn source(id: u32, patches: Vec<Vec<f32>>, p: usize) -> Source {
+        Source {
+            id,
+            name: format!("s{id}"),
+            heights: Grid::new(1, 1, 0.0),
+            nodes: [Vec::new(), Vec::new()],
+            featureless: patches
+                .into_iter()
+                .enumerate()
+                .map(|(i, pixels)| FeaturelessPatch {
+                    x: 100 + i as u32 * 64,
+                    y: 100,
+                    noise: noise_variances(&pixels, p).unwrap(),
+                    pixels,
+                })
+                .collect(),
+            min_range: 1.0,
+            cache_hit: false,
+        }
+    }
+
+    #[test]
+    fn the_matching_patch_in_the_matching_variant_wins_whatever_its_offset() {
+        let p = 16;
+        let maps = variant_maps(p);
+        let wave =
+            |a: f32| -> Vec<f32> { (0..p * p).map(|k| ((k % p) as f32 * a).sin() * 20.0 + (k / p) as f32 * 3.0 * a).collect() };
+        let target_src = wave(0.7);
+        let sources = vec![source(0, vec![wave(0.2), wave(1.3)], p), source(1, vec![wave(0.5), target_src.clone()], p)];
+        // the target shows variant 3 of source 1's second patch, 500 m higher, on its left half
+        let shown: Vec<f32> = maps[3].iter().map(|&m| target_src[m as usize] + 500.0).collect();
+        let samples: Vec<(u32, f32)> = (0..p * p).filter(|k| k % p < p / 2).map(|k| (k as u32, shown[k])).collect();
+        let q = FillQuery { id: 9, samples, relief: 10.0, noise: None, coherence: Vec::new(), avoid: Vec::new() };
+        let set = best_fill_set(&sources, &maps, &q, 0, 3, p);
+        assert_eq!(set.target, 9);
+        assert_eq!(set.entries.len(), 3);
+        let best = &set.entries[0];
+        assert_eq!((best.source, best.x, best.variant), (1, 164, 3));
+        assert!(best.cost <= SEED_JITTER, "an exact match costs only the jitter, got {}", best.cost);
+        assert!(set.entries.windows(2).all(|w| w[0].order(&w[1]).is_lt()));
+        let expect: Vec<f32> = maps[3].iter().map(|&m| target_src[m as usize]).collect();
+        assert_eq!(best.pixels, expect);
+        // the same region placed nearby is penalised and loses its place
+        let q2 = FillQuery { avoid: vec![(1, 168, 104)], ..q };
+        let again = best_fill_set(&sources, &maps, &q2, 0, 3, p);
+        assert!(again.entries[0].source != 1 || again.entries[0].x != 164);
+    }
+}
