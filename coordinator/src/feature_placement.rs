@@ -31,6 +31,11 @@ use std::time::Instant;
 /// How many not-yet-placed user patches a batch scan looks at, at most.
 pub const BATCH_SCAN: usize = 256;
 
+/// Arrived user patches kept waiting for round 2, at most (each holds its best-sets'
+/// pixels: k x sources x patch² floats), so memory does not grow with the terrain
+/// when round 1 runs ahead of round 2. The result does not depend on it.
+pub const LOOKAHEAD: usize = 64;
+
 /// What feature placement did.
 #[derive(Debug, Default)]
 pub struct PlacementStats {
@@ -119,7 +124,7 @@ pub fn place_features(
     let mut pending: Vec<usize> = Vec::new();
     let mut done = 0u64;
     std::thread::scope(|scope| -> Result<(), ShardError> {
-        let (tx, rx) = std::sync::mpsc::sync_channel::<Result<(Vec<BestSet>, f64), ShardError>>(4);
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Result<(Vec<BestSet>, f64), ShardError>>(2);
         let blocks_ref = &blocks;
         let job_span = tracing::Span::current();
         scope.spawn(move || {
@@ -199,8 +204,10 @@ pub fn place_features(
                 st.wait_s += tw.elapsed().as_secs_f64();
                 receive(msg, &mut cands, &mut pending, &mut st)?;
             }
-            // take whatever else has arrived: a longer look-ahead finds larger batches
-            while let Ok(msg) = rx.try_recv() {
+            // take whatever else has arrived, up to the look-ahead: a longer look-ahead
+            // finds larger batches
+            while pending.len() < LOOKAHEAD {
+                let Ok(msg) = rx.try_recv() else { break };
                 receive(msg, &mut cands, &mut pending, &mut st)?;
             }
             let batch = next_batch(ups, &pending, p, canvas.base_level.is_none());

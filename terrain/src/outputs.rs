@@ -12,7 +12,7 @@
 use crate::dem_formats::parse_tiff;
 use crate::error::{Result, TerrainError};
 use crate::grid::{Grid, Heightfield};
-use crate::io::write_atomic;
+use crate::io::{write_atomic, write_atomic_with};
 use std::path::{Path, PathBuf};
 
 /// Sidecar of 16-bit outputs: `metres = min_elevation + sample * scale`.
@@ -49,20 +49,21 @@ fn other(path: &Path, e: impl std::fmt::Display) -> TerrainError {
 /// goes into the GeoTIFF pixel-scale tag.
 pub fn encode_tiff_f32_with_cell(h: &Heightfield, cell: Option<f32>) -> Result<Vec<u8>> {
     let mut buf = std::io::Cursor::new(Vec::new());
-    {
-        let mut enc = tiff::encoder::TiffEncoder::new(&mut buf).map_err(|e| TerrainError::Other(e.to_string()))?;
-        let mut img = enc
-            .new_image::<tiff::encoder::colortype::Gray32Float>(h.width as u32, h.height as u32)
-            .map_err(|e| TerrainError::Other(e.to_string()))?;
-        if let Some(c) = cell {
-            let scale = [c as f64, c as f64, 0.0];
-            img.encoder()
-                .write_tag(tiff::tags::Tag::ModelPixelScaleTag, &scale[..])
-                .map_err(|e| TerrainError::Other(e.to_string()))?;
-        }
-        img.write_data(&h.data).map_err(|e| TerrainError::Other(e.to_string()))?;
-    }
+    write_tiff_f32(&mut buf, h, cell).map_err(|e| TerrainError::Other(e.to_string()))?;
     Ok(buf.into_inner())
+}
+
+/// Streams a heightfield as a single-channel 32-bit float TIFF into `w` (strip by
+/// strip: no second copy of the terrain in memory).
+pub fn write_tiff_f32<W: std::io::Write + std::io::Seek>(w: &mut W, h: &Heightfield, cell: Option<f32>) -> std::io::Result<()> {
+    let e = |e: tiff::TiffError| std::io::Error::other(e.to_string());
+    let mut enc = tiff::encoder::TiffEncoder::new(w).map_err(e)?;
+    let mut img = enc.new_image::<tiff::encoder::colortype::Gray32Float>(h.width as u32, h.height as u32).map_err(e)?;
+    if let Some(c) = cell {
+        let scale = [c as f64, c as f64, 0.0];
+        img.encoder().write_tag(tiff::tags::Tag::ModelPixelScaleTag, &scale[..]).map_err(e)?;
+    }
+    img.write_data(&h.data).map_err(e)
 }
 
 /// Encodes a heightfield as a single-channel 32-bit float TIFF.
@@ -89,16 +90,22 @@ pub const OUTPUT_EXTENSIONS: [&str; 4] = ["tif", "tiff", "png", "r16"];
 fn write_with_sidecar(path: &Path, h: &Heightfield, side: &Png16Sidecar, cell: Option<f32>) -> Result<()> {
     let ext = ext_of(path);
     match ext.as_str() {
-        "tif" | "tiff" => write_atomic(path, &encode_tiff_f32_with_cell(h, cell)?),
+        "tif" | "tiff" => write_atomic_with(path, |f| write_tiff_f32(f, h, cell)),
         "png" | "r16" => {
-            let bytes = if ext == "png" {
-                encode_png16(path, h, side)?
-            } else {
-                h.data.iter().flat_map(|&v| side.quantise(v).to_le_bytes()).collect()
-            };
             let json = serde_json::to_vec_pretty(side).map_err(|e| other(path, e))?;
             write_atomic(&path.with_extension("json"), &json)?;
-            write_atomic(path, &bytes)
+            if ext == "png" {
+                write_atomic(path, &encode_png16(path, h, side)?)
+            } else {
+                write_atomic_with(path, |f| {
+                    use std::io::Write;
+                    for row in h.data.chunks(h.width.max(1)) {
+                        let bytes: Vec<u8> = row.iter().flat_map(|&v| side.quantise(v).to_le_bytes()).collect();
+                        f.write_all(&bytes)?;
+                    }
+                    Ok(())
+                })
+            }
         }
         _ => Err(TerrainError::Invalid {
             path: path.to_path_buf(),
