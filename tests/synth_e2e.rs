@@ -124,3 +124,67 @@ fn a_sketch_without_strokes_is_filled_by_hole_filling_alone() {
     assert!(out.report.hole_fills > 0);
     assert!(out.terrain().data.iter().all(|v| v.is_finite()));
 }
+
+#[test]
+fn batched_round_two_gives_the_sequential_result() {
+    let Some(cold) = cold_run() else { return };
+    let data = shared_data().unwrap();
+    let run = |max_batch: usize| {
+        let cfg = SynthConfig {
+            threads: 2,
+            block: 4,
+            max_batch,
+            keep_features_only: true,
+            cache_dir: Some(cold.cache.clone()),
+            ..Default::default()
+        };
+        run_job(&data.join("sketches/mixed-1024.png"), &data.join("dems"), &cfg).expect("synthesis")
+    };
+    let (one, batched) = (run(1), run(0));
+    eprintln!(
+        "round 2: {} batches one at a time, {} batched, for {} user patches",
+        one.report.placement_batches,
+        batched.report.placement_batches,
+        one.report.ridge_patches + one.report.valley_patches
+    );
+    assert!(batched.report.placement_batches < one.report.placement_batches, "batches hold several user patches");
+    let f = |o: &SynthOutput| encode_tiff_f32(o.features_only.as_ref().unwrap()).unwrap();
+    assert!(f(&one) == f(&batched), "feature placement differs from one user patch at a time");
+    assert!(encode_tiff_f32(one.terrain()).unwrap() == encode_tiff_f32(batched.terrain()).unwrap());
+}
+
+/// Mean absolute second difference across column `c` (between c-1, c, c+1) or row.
+fn curvature_across(h: &ridgeline_terrain::Heightfield, c: usize, columns: bool) -> f64 {
+    let n = if columns { h.height } else { h.width };
+    let at = |i: usize, k: usize| if columns { h.get(k, i) } else { h.get(i, k) } as f64;
+    (0..n).map(|i| (at(i, c + 1) - 2.0 * at(i, c) + at(i, c - 1)).abs()).sum::<f64>() / n as f64
+}
+
+#[test]
+fn no_seam_along_hole_filling_tile_boundaries() {
+    let Some(data) = shared_data() else { return };
+    let dir = temp_dir("tiles");
+    // no strokes: the whole terrain comes from hole filling, across many tiles
+    let sketch = image::GrayImage::from_pixel(640, 384, image::Luma([128u8]));
+    let sketch_path = dir.join("blank.png");
+    sketch.save(&sketch_path).unwrap();
+    let patch = 32;
+    let cfg = SynthConfig { patch, threads: 2, cache_dir: Some(dir.join("cache")), ..Default::default() };
+    let out = run_job(&sketch_path, &data.join("dems"), &cfg).expect("synthesis");
+    let h = out.terrain();
+    assert!(h.data.iter().all(|v| v.is_finite()));
+    let side = ridgeline::hole_filling::TILE_PATCHES * patch;
+    for columns in [true, false] {
+        let len = if columns { h.width } else { h.height };
+        let all: Vec<f64> = (2..len - 2).map(|c| curvature_across(h, c, columns)).collect();
+        let interior = all.iter().sum::<f64>() / all.len() as f64;
+        let boundary: Vec<f64> =
+            (1..len / side).flat_map(|b| [b * side - 1, b * side]).map(|c| curvature_across(h, c, columns)).collect();
+        let at_boundary = boundary.iter().sum::<f64>() / boundary.len() as f64;
+        eprintln!(
+            "{}: mean |second difference| {at_boundary:.3} m at tile boundaries, {interior:.3} m overall",
+            if columns { "columns" } else { "rows" }
+        );
+        assert!(at_boundary <= 1.5 * interior, "tile boundaries show: {at_boundary} vs {interior}");
+    }
+}

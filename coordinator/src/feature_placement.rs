@@ -56,8 +56,8 @@ pub fn interact(patch: usize, a: (usize, usize), b: (usize, usize)) -> bool {
 }
 
 /// Picks the next batch among `pending` (indices into `ups`, in BFS order).
-pub fn next_batch(ups: &[UserPatch], pending: &[usize], patch: usize, first_only: bool) -> Vec<usize> {
-    if first_only {
+pub fn next_batch(ups: &[UserPatch], pending: &[usize], patch: usize, max: usize) -> Vec<usize> {
+    if max <= 1 {
         return pending.iter().take(1).copied().collect();
     }
     let mut seen: Vec<(usize, usize)> = Vec::new();
@@ -66,6 +66,9 @@ pub fn next_batch(ups: &[UserPatch], pending: &[usize], patch: usize, first_only
         let c = (ups[i].cx, ups[i].cy);
         if !seen.iter().any(|&s| interact(patch, s, c)) {
             batch.push(i);
+            if batch.len() == max {
+                break;
+            }
         }
         seen.push(c);
     }
@@ -104,6 +107,8 @@ pub struct PlacementSettings<'a> {
     pub k: usize,
     pub block: usize,
     pub seed: u64,
+    /// Largest batch (0 = no limit; 1 = one user patch at a time).
+    pub max_batch: usize,
     pub progress: &'a (dyn Fn(u64, u64) + Sync),
 }
 
@@ -210,7 +215,14 @@ pub fn place_features(
                 let Ok(msg) = rx.try_recv() else { break };
                 receive(msg, &mut cands, &mut pending, &mut st)?;
             }
-            let batch = next_batch(ups, &pending, p, canvas.base_level.is_none());
+            let max = if canvas.base_level.is_none() {
+                1
+            } else if set.max_batch == 0 {
+                usize::MAX
+            } else {
+                set.max_batch
+            };
+            let batch = next_batch(ups, &pending, p, max);
             st.batches += 1;
             let _b = tracing::debug_span!("batch", user_patches = batch.len()).entered();
             let results: Vec<(Canvas, bool)> = pool.install(|| {

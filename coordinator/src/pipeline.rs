@@ -63,6 +63,9 @@ pub struct SynthConfig {
     pub progress: Progress,
     /// gRPC workers to score on; `None` = in-process shards.
     pub cluster: Option<Arc<crate::cluster::Cluster>>,
+    /// Largest round-2 batch of non-interacting user patches (0 = no limit, 1 = one
+    /// at a time). The output does not depend on it; it is there to show that.
+    pub max_batch: usize,
     /// Keep a copy of the terrain before hole filling (`SynthOutput::features_only`,
     /// for debug views): 4 more bytes per output cell.
     pub keep_features_only: bool,
@@ -104,6 +107,7 @@ impl Default for SynthConfig {
             progress: Progress::default(),
             cluster: None,
             keep_features_only: false,
+            max_batch: 0,
         }
     }
 }
@@ -306,7 +310,8 @@ fn synthesize_in(
     let t = Instant::now();
     let mut canvas = Canvas::new(sketch.width, sketch.height, p);
     let progress = |done: u64, total: u64| cfg.progress.report("feature placement", done, total);
-    let settings = PlacementSettings { k: cfg.k, block: cfg.block, seed: cfg.seed, progress: &progress };
+    let settings =
+        PlacementSettings { k: cfg.k, block: cfg.block, seed: cfg.seed, max_batch: cfg.max_batch, progress: &progress };
     let placed = {
         let _s = tracing::info_span!("stage", name = "feature_placement").entered();
         place_features(&mut canvas, &ups, shards, &settings, pool)?
