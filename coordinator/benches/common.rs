@@ -3,6 +3,7 @@
 use std::path::PathBuf;
 
 /// Median of a sample (sorts it).
+#[allow(dead_code)] // not every benchmark uses every helper
 pub fn median(v: &mut [f64]) -> f64 {
     v.sort_by(f64::total_cmp);
     let n = v.len();
@@ -27,6 +28,7 @@ pub fn shared_data() -> Option<PathBuf> {
 }
 
 /// Runs per setting: `$RIDGELINE_BENCH_RUNS` or `default`.
+#[allow(dead_code)]
 pub fn runs(default: usize) -> usize {
     std::env::var("RIDGELINE_BENCH_RUNS").ok().and_then(|v| v.parse().ok()).unwrap_or(default).max(1)
 }

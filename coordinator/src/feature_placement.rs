@@ -19,6 +19,7 @@
 //! first batch is that patch alone.)
 
 use crate::canvas::{Canvas, Rect};
+use crate::pipeline::on_every_shard;
 use crate::selection::select_and_merge;
 use crate::user_patches::UserPatch;
 use rayon::prelude::*;
@@ -139,24 +140,7 @@ pub fn place_features(
                 let t = Instant::now();
                 let queries: Vec<_> = block.iter().map(|u| u.query.clone()).collect();
                 // every shard scores the block at once (remote shards wait on the network)
-                let answers: Vec<Result<Vec<BestSet>, ShardError>> = std::thread::scope(|s| {
-                    let handles: Vec<_> = shards
-                        .iter()
-                        .enumerate()
-                        .map(|(si, shard)| {
-                            let (queries, span) = (&queries, tracing::Span::current());
-                            s.spawn(move || {
-                                let _g = span.enter();
-                                let _w = tracing::debug_span!("worker_call", shard = si).entered();
-                                pool.install(|| shard.score_block(queries, set.k))
-                            })
-                        })
-                        .collect();
-                    handles
-                        .into_iter()
-                        .map(|h| h.join().unwrap_or_else(|_| Err(ShardError::Unavailable("scoring thread panicked".into()))))
-                        .collect()
-                });
+                let answers = on_every_shard(shards, pool, |_, shard| shard.score_block(&queries, set.k));
                 let mut sets = Vec::new();
                 for a in answers {
                     match a {

@@ -43,6 +43,7 @@
 //! that run into a hole are continued first.
 
 use crate::canvas::{Canvas, Placement, Rect};
+use crate::pipeline::on_every_shard;
 use crate::window_scoring::{cut_and_merge, Target, GRAPH_CUT_SET};
 use rayon::prelude::*;
 use ridgeline_terrain::shard::{FillCandidate, FillQuery, ShardError, ShardScorer};
@@ -53,6 +54,10 @@ use std::time::Instant;
 
 /// Side of a hole-filling tile, in patches (at least 2: see the module header).
 pub const TILE_PATCHES: usize = 4;
+
+/// Tiles of a phase worked on at once (bounds the sub-canvases' memory; a wave
+/// holds at most this many fill targets).
+pub const TILES_AT_ONCE: usize = 64;
 
 /// Why hole filling could not finish.
 #[derive(Debug, thiserror::Error)]
@@ -328,25 +333,7 @@ fn score_wave(
     seed: u64,
     pool: &rayon::ThreadPool,
 ) -> Result<Vec<Vec<FillCandidate>>, ShardError> {
-    // one OS thread per shard: remote shards wait on the network, in-process shards
-    // run on the job's pool; nothing blocks a pool thread on another
-    let answers: Vec<Result<_, ShardError>> = std::thread::scope(|s| {
-        let span = tracing::Span::current();
-        let handles: Vec<_> = shards
-            .iter()
-            .map(|shard| {
-                let span = span.clone();
-                s.spawn(move || {
-                    let _g = span.enter();
-                    pool.install(|| shard.score_fill(queries, seed, GRAPH_CUT_SET))
-                })
-            })
-            .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().unwrap_or_else(|_| Err(ShardError::Unavailable("fill scoring panicked".into()))))
-            .collect()
-    });
+    let answers = on_every_shard(shards, pool, |_, shard| shard.score_fill(queries, seed, GRAPH_CUT_SET));
     let mut merged: Vec<Vec<FillCandidate>> = vec![Vec::new(); queries.len()];
     for a in answers {
         for set in a? {
@@ -444,52 +431,57 @@ pub fn fill_holes(
                 continue;
             }
             let _span = tracing::debug_span!("fill_phase", round = stats.rounds, colour, tiles = ids.len()).entered();
-            let mut tiles: Vec<TileFill> = pool.install(|| {
-                ids.par_iter()
-                    .map(|&t| {
-                        let c = core(t);
-                        TileFill::new(canvas.extract(c.grow(margin, w, h), c), c, &env)
-                    })
-                    .collect()
-            });
-            loop {
-                let queries: Vec<(usize, FillQuery)> = pool.install(|| {
-                    tiles.par_iter_mut().enumerate().filter_map(|(i, t)| t.next_query(&env).map(|q| (i, q))).collect()
+            // at most TILES_AT_ONCE sub-canvases exist at a time: tiles of one colour
+            // never read what another writes, so committing them group by group gives
+            // the same result as committing them all at the end of the phase
+            for ids in ids.chunks(TILES_AT_ONCE) {
+                let mut tiles: Vec<TileFill> = pool.install(|| {
+                    ids.par_iter()
+                        .map(|&t| {
+                            let c = core(t);
+                            TileFill::new(canvas.extract(c.grow(margin, w, h), c), c, &env)
+                        })
+                        .collect()
                 });
-                if queries.is_empty() {
-                    break;
+                loop {
+                    let queries: Vec<(usize, FillQuery)> = pool.install(|| {
+                        tiles.par_iter_mut().enumerate().filter_map(|(i, t)| t.next_query(&env).map(|q| (i, q))).collect()
+                    });
+                    if queries.is_empty() {
+                        break;
+                    }
+                    stats.waves += 1;
+                    let (owners, mut qs): (Vec<usize>, Vec<FillQuery>) = queries.into_iter().unzip();
+                    qs.iter_mut().enumerate().for_each(|(i, q)| q.id = i as u32);
+                    let ts = Instant::now();
+                    let answers = score_wave(shards, &qs, seed, pool)?;
+                    stats.score_s += ts.elapsed().as_secs_f64();
+                    let mut per_tile: Vec<Option<Vec<FillCandidate>>> = vec![None; tiles.len()];
+                    for (o, a) in owners.into_iter().zip(answers) {
+                        per_tile[o] = Some(a);
+                    }
+                    pool.install(|| {
+                        tiles.par_iter_mut().zip(per_tile).for_each(|(t, a)| {
+                            if let Some(a) = a {
+                                t.apply(&a, &env);
+                            }
+                        })
+                    });
+                    let done: usize = tiles.iter().map(|t| t.initial_empty - t.sub.empty).sum();
+                    on_fill((canvas.empty - done) as u64);
                 }
-                stats.waves += 1;
-                let (owners, mut qs): (Vec<usize>, Vec<FillQuery>) = queries.into_iter().unzip();
-                qs.iter_mut().enumerate().for_each(|(i, q)| q.id = i as u32);
-                let ts = Instant::now();
-                let answers = score_wave(shards, &qs, seed, pool)?;
-                stats.score_s += ts.elapsed().as_secs_f64();
-                let mut per_tile: Vec<Option<Vec<FillCandidate>>> = vec![None; tiles.len()];
-                for (o, a) in owners.into_iter().zip(answers) {
-                    per_tile[o] = Some(a);
-                }
-                pool.install(|| {
-                    tiles.par_iter_mut().zip(per_tile).for_each(|(t, a)| {
-                        if let Some(a) = a {
-                            t.apply(&a, &env);
+                for (t, &id) in tiles.iter().zip(ids) {
+                    stats.cells_filled += canvas.commit(&t.sub);
+                    stats.fills += t.fills;
+                    stats.cg_iterations += t.cg_iterations;
+                    stats.target_s += t.target_s;
+                    stats.cut_merge_s += t.cut_merge_s;
+                    // the tile and its neighbours may have changed
+                    let (tx, ty) = (id % tw, id / tw);
+                    for ny in ty.saturating_sub(1)..(ty + 2).min(th) {
+                        for nx in tx.saturating_sub(1)..(tx + 2).min(tw) {
+                            tile_empty[ny * tw + nx] = count_empty(canvas, core(ny * tw + nx));
                         }
-                    })
-                });
-                let done: usize = tiles.iter().map(|t| t.initial_empty - t.sub.empty).sum();
-                on_fill((canvas.empty - done) as u64);
-            }
-            for (t, &id) in tiles.iter().zip(&ids) {
-                stats.cells_filled += canvas.commit(&t.sub);
-                stats.fills += t.fills;
-                stats.cg_iterations += t.cg_iterations;
-                stats.target_s += t.target_s;
-                stats.cut_merge_s += t.cut_merge_s;
-                // the tile and its neighbours may have changed
-                let (tx, ty) = (id % tw, id / tw);
-                for ny in ty.saturating_sub(1)..(ty + 2).min(th) {
-                    for nx in tx.saturating_sub(1)..(tx + 2).min(tw) {
-                        tile_empty[ny * tw + nx] = count_empty(canvas, core(ny * tw + nx));
                     }
                 }
             }

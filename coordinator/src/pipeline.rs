@@ -39,6 +39,36 @@ use std::time::Instant;
 /// The shards a job talks to.
 pub type Shards = Vec<Arc<dyn ShardScorer>>;
 
+/// Runs `call` on every shard at once, one OS thread per shard: remote shards wait on
+/// the network there, in-process shards run on the job's `pool`, and no pool thread
+/// ever waits on another. Results come back in shard order. Call it from outside
+/// `pool`.
+pub fn on_every_shard<T: Send>(
+    shards: &[Arc<dyn ShardScorer>],
+    pool: &rayon::ThreadPool,
+    call: impl Fn(usize, &dyn ShardScorer) -> Result<T, ShardError> + Sync,
+) -> Vec<Result<T, ShardError>> {
+    let span = tracing::Span::current();
+    std::thread::scope(|s| {
+        let handles: Vec<_> = shards
+            .iter()
+            .enumerate()
+            .map(|(i, shard)| {
+                let (span, call) = (span.clone(), &call);
+                s.spawn(move || {
+                    let _g = span.enter();
+                    let _w = tracing::debug_span!("worker_call", shard = i).entered();
+                    pool.install(|| call(i, shard.as_ref()))
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().unwrap_or_else(|_| Err(ShardError::Unavailable("shard call panicked".into()))))
+            .collect()
+    })
+}
+
 /// Settings of one synthesis job.
 #[derive(Debug, Clone)]
 pub struct SynthConfig {
@@ -169,6 +199,15 @@ pub struct SynthReport {
     /// ridge-shaped cross profile at patch/4, and the same for valleys.
     pub ridge_adherence: crate::quality::Adherence,
     pub valley_adherence: crate::quality::Adherence,
+    /// Peak resident memory of the process so far (Linux `VmHWM`), when known.
+    pub peak_rss_bytes: Option<u64>,
+}
+
+/// Peak resident memory of this process (`VmHWM` of /proc/self/status), on Linux.
+pub fn peak_rss_bytes() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let kb: u64 = s.lines().find(|l| l.starts_with("VmHWM:"))?.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
 }
 
 impl SynthReport {
@@ -250,7 +289,7 @@ pub fn run_job(sketch_path: &Path, exemplar_dir: &Path, cfg: &SynthConfig) -> Re
         pool.install(|| load_library(exemplar_dir, cfg))?
     };
     let load_s = t.elapsed().as_secs_f64();
-    let mut out = synthesize_in(&sketch, &shards, cfg, &pool)?;
+    let mut out = synthesize_in(sketch, &shards, cfg, &pool)?;
     out.report.cell_size_m = cell;
     out.report.stages.insert(0, StageTiming { stage: "exemplars", seconds: load_s });
     Ok(out)
@@ -270,14 +309,14 @@ fn validate(cfg: &SynthConfig) -> Result<(), SynthError> {
 pub fn synthesize(sketch: &Grid<u8>, shards: &[Arc<dyn ShardScorer>], cfg: &SynthConfig) -> Result<SynthOutput, SynthError> {
     validate(cfg)?;
     let pool = thread_pool(cfg.threads)?;
-    synthesize_in(sketch, shards, cfg, &pool)
+    synthesize_in(sketch.clone(), shards, cfg, &pool)
 }
 
 /// Runs the stages. Parallel work runs inside `pool.install`; blocking (waiting for
 /// round-1 results) happens outside it, so no pool thread ever waits on another and
 /// a one-thread pool cannot deadlock.
 fn synthesize_in(
-    sketch: &Grid<u8>,
+    sketch: Grid<u8>,
     shards: &[Arc<dyn ShardScorer>],
     cfg: &SynthConfig,
     pool: &rayon::ThreadPool,
@@ -292,7 +331,7 @@ fn synthesize_in(
     let t = Instant::now();
     let sk = {
         let _s = tracing::info_span!("stage", name = "sketch_features").entered();
-        pool.install(|| analyse(sketch, p))
+        pool.install(|| analyse(&sketch, p))
     };
     report.stage("sketch_features", t);
 
@@ -358,5 +397,6 @@ fn synthesize_in(
         let name = report.exemplars.iter().find(|e| e.source == pl.source).map(|e| e.name.clone()).unwrap_or_default();
         *report.placements_per_exemplar.entry(name).or_default() += 1;
     }
-    Ok(SynthOutput { sketch_image: sketch.clone(), features_only, sketch: sk, user_patches: ups, canvas, report })
+    report.peak_rss_bytes = peak_rss_bytes();
+    Ok(SynthOutput { sketch_image: sketch, features_only, sketch: sk, user_patches: ups, canvas, report })
 }
