@@ -173,7 +173,7 @@ fn no_seam_along_hole_filling_tile_boundaries() {
     let out = run_job(&sketch_path, &data.join("dems"), &cfg).expect("synthesis");
     let h = out.terrain();
     assert!(h.data.iter().all(|v| v.is_finite()));
-    let side = ridgeline::hole_filling::TILE_PATCHES * patch;
+    let side = ridgeline::hole_filling::tile_side(h.width, h.height, patch);
     for columns in [true, false] {
         let len = if columns { h.width } else { h.height };
         let all: Vec<f64> = (2..len - 2).map(|c| curvature_across(h, c, columns)).collect();

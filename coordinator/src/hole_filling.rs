@@ -52,8 +52,19 @@ use std::collections::{BTreeMap, BinaryHeap};
 use std::sync::Arc;
 use std::time::Instant;
 
-/// Side of a hole-filling tile, in patches (at least 2: see the module header).
+/// Side of a hole-filling tile, in patches (at least 2: see the module header)…
 pub const TILE_PATCHES: usize = 4;
+/// …and for outputs under [`SMALL_OUTPUT_PATCHES`] patches a side, where tiles of 4
+/// patches would leave one tile per phase: fixed by the output and patch size alone,
+/// so the result still does not depend on the thread count.
+pub const SMALL_TILE_PATCHES: usize = 2;
+pub const SMALL_OUTPUT_PATCHES: usize = 16;
+
+/// Side of the hole-filling tiles for a `w x h` output and patch `p`, in cells.
+pub fn tile_side(w: usize, h: usize, p: usize) -> usize {
+    let patches = if w.min(h) < SMALL_OUTPUT_PATCHES * p { SMALL_TILE_PATCHES } else { TILE_PATCHES };
+    patches.max(2) * p
+}
 
 /// Tiles of a phase worked on at once (bounds the sub-canvases' memory; a wave
 /// holds at most this many fill targets).
@@ -408,7 +419,7 @@ pub fn fill_holes(
         stats.cells_filled += m.new_cells;
     }
     let env = FillEnv { slope_ref: typical_slope(canvas), median_relief };
-    let side = TILE_PATCHES.max(2) * p;
+    let side = tile_side(w, h, p);
     let (tw, th) = (w.div_ceil(side), h.div_ceil(side));
     let core = |t: usize| {
         let (tx, ty) = (t % tw, t / tw);
