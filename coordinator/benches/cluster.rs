@@ -94,6 +94,7 @@ fn main() {
     let cache = tmp.join("cache");
     println!("cluster benchmark: {name}, 16 DEMs, {runs} runs per setting (after one warm-up run that uploads and caches)");
     let mut summary: BTreeMap<usize, (f64, f64, f64, f64)> = BTreeMap::new();
+    let mut fill_costs = (0.0, 0.0, 0usize, 1usize, 1.0f64);
     let mut inproc_costs = (0.0, 0.0, 0usize, 0usize);
     for n in [0usize, 1, 3] {
         let workers: Vec<Worker> = (0..n).map(|i| start_worker(&tmp.join(format!("w{n}-{i}")))).collect();
@@ -131,21 +132,38 @@ fn main() {
         summary.insert(n, (tm, wm, bm, placement));
         if n == 0 {
             inproc_costs = (r1, placement - wm, rep.ridge_patches + rep.valley_patches, rep.exemplars.len());
+            let batch = (rep.ridge_patches + rep.valley_patches) as f64 / rep.placement_batches.max(1) as f64;
+            fill_costs = (rep.fill_scoring_s, rep.fill_coordinator_core_s, rep.hole_fills, rep.width * rep.height, batch);
         }
     }
-    // scaling model: per block, workers need U·S·c/W and the coordinator U·m, so more
-    // workers stop helping at W* = S·c/m, whatever the terrain size
+    // Scaling model. Worker work (scoring) grows with user patches x sources and fill
+    // targets x sources; coordinator work (round-2 selection and merging, fill cuts and
+    // merges) with user patches and fills, and runs on all coordinator cores. Workers
+    // stop helping once their share is done faster than the coordinator's.
     let (r1, merge, ups, sources) = inproc_costs;
+    let (fill_score, fill_coord, fills, cells, batch) = fill_costs;
     let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1) as f64;
-    let c = r1 * cores / (ups as f64 * sources as f64); // core-seconds per (user patch, source)
-    let m = merge / ups as f64; // coordinator seconds per user patch (select + merge)
+    let c = r1 * cores / (ups as f64 * sources as f64); // core-s per (user patch, source)
+    let m = merge * cores.min(batch) / ups as f64; // coordinator core-s per user patch
+    let cf = fill_score * cores / (fills.max(1) as f64 * sources as f64); // core-s per (fill, source)
+    let mf = fill_coord / fills.max(1) as f64; // coordinator core-s per fill
+    let (ups_per_mp, fills_per_mp) = (ups as f64 / (cells as f64 / 1e6), fills as f64 / (cells as f64 / 1e6));
     println!("\nscaling model (from the in-process run on {cores} cores)");
-    println!("  round-1 cost c       = {:.2} ms per (user patch, source) on one core", c * 1e3);
-    println!("  merge cost m         = {:.2} ms per user patch on the coordinator", m * 1e3);
-    for (lib, cores_per_worker) in [(sources, 16.0), (1000usize, 16.0)] {
-        let w_star = (lib as f64 * c / cores_per_worker) / m;
+    println!("  round 1:  c  = {:.3} ms per (user patch, source) on one worker core", c * 1e3);
+    println!("  round 2:  m  = {:.2} ms of coordinator core per user patch", m * 1e3);
+    println!("  fill scoring: cf = {:.3} ms per (fill target, source) on one worker core", cf * 1e3);
+    println!("  fill cut + merge: mf = {:.2} ms of coordinator core per fill", mf * 1e3);
+    println!("  this sketch: {ups_per_mp:.0} user patches and {fills_per_mp:.0} fills per output megapixel, {batch:.1} user patches per round-2 batch");
+    let mp = 16384.0 * 16384.0 / 1e6;
+    let (u, f) = (ups_per_mp * mp, fills_per_mp * mp);
+    for (lib, coord_cores, worker_cores) in [(sources, 16.0f64, 16.0f64), (1000usize, 16.0, 16.0), (1000usize, 64.0, 16.0)] {
+        let worker_work = u * lib as f64 * c + f * lib as f64 * cf;
+        // round 2 runs `batch` user patches at a time (the measured mean batch), fills
+        // one per tile, with far more tiles than cores at this size
+        let coord_s = u * m / coord_cores.min(batch) + f * mf / coord_cores;
+        let w_star = worker_work / (coord_s * worker_cores);
         println!(
-            "  library of {lib:>4} sources, {cores_per_worker}-core workers: W* = S·c/(cores·m) = {w_star:.1} workers before the coordinator's merging is the bottleneck"
+            "  16384², {lib} sources, {coord_cores}-core coordinator: coordinator ≈ {coord_s:.0} s; {worker_cores}-core workers help up to W* ≈ {w_star:.0}"
         );
     }
     let _ = std::fs::remove_dir_all(&tmp);

@@ -195,6 +195,10 @@ pub struct SynthReport {
     /// Hole-filling rounds (of four colour phases) and scoring waves.
     pub fill_rounds: usize,
     pub fill_waves: usize,
+    /// Hole filling: wall seconds scoring fill targets on the shards, and core-seconds
+    /// the coordinator spent choosing targets, cutting seams and merging.
+    pub fill_scoring_s: f64,
+    pub fill_coordinator_core_s: f64,
     /// Sketch adherence of the result: sampled ridge centre-line points with a
     /// ridge-shaped cross profile at patch/4, and the same for valleys.
     pub ridge_adherence: crate::quality::Adherence,
@@ -374,6 +378,8 @@ fn synthesize_in(
     report.hole_fills = fill.fills;
     report.fill_rounds = fill.rounds;
     report.fill_waves = fill.waves;
+    report.fill_scoring_s = fill.score_s;
+    report.fill_coordinator_core_s = fill.target_s + fill.cut_merge_s;
     report.cells_filled_by_holes = fill.cells_filled;
     tracing::info!(
         fills = fill.fills,
