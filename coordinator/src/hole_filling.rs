@@ -3,7 +3,8 @@
 //! variants, most-constrained location first, until no cell is empty.
 //!
 //! **Schedule: tiles in colour phases.** The output is cut into square tiles of
-//! [`TILE_PATCHES`] patches a side, coloured like a 2 x 2 checkerboard. A round runs
+//! [`TILE_PATCHES`] patches a side ([`SMALL_TILE_PATCHES`] on small outputs, see
+//! [`tile_side`]), coloured like a 2 x 2 checkerboard. A round runs
 //! the four colours one after another; in a phase every tile of that colour works on
 //! its own copy of its surroundings (a sub-canvas: the tile grown by half a patch plus
 //! two cells, which holds every cell its windows, seams and Poisson rings touch) with
