@@ -86,9 +86,6 @@ impl Rect {
     pub fn grow(&self, m: usize, w: usize, h: usize) -> Rect {
         Rect { x0: self.x0.saturating_sub(m), y0: self.y0.saturating_sub(m), x1: (self.x1 + m).min(w), y1: (self.y1 + m).min(h) }
     }
-    pub fn contains(&self, x: usize, y: usize) -> bool {
-        x >= self.x0 && x < self.x1 && y >= self.y0 && y < self.y1
-    }
 }
 
 /// The output terrain under construction (the whole output, or a sub-canvas of it).
@@ -312,11 +309,6 @@ impl Canvas {
         }
         before - self.empty
     }
-
-    /// Placements this canvas added itself (not copied in as context).
-    pub fn new_placements(&self) -> &[Placement] {
-        &self.placements[self.context.len()..]
-    }
 }
 
 #[cfg(test)]
@@ -349,7 +341,7 @@ mod tests {
         assert_eq!(sub.placements.len(), 1, "the placement its cells came from comes along");
         assert_eq!(sub.empty, 30 * 30 - 64);
         sub.place(26, 20, &[5.0; 64], 0.0, pl(26, 20, 1));
-        assert_eq!(sub.new_placements().len(), 1);
+        assert_eq!(sub.placements.len(), 2, "one placement of its own beside the context");
         let filled = c.commit(&sub);
         assert_eq!(filled, 6 * 8, "the new patch's cells beyond the old one");
         assert_eq!(c.empty, 64 * 48 - 64 - 48);

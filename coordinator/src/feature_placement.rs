@@ -56,17 +56,18 @@ pub fn interact(patch: usize, a: (usize, usize), b: (usize, usize)) -> bool {
     cheb < patch as i64 + 4 || near_centre(patch, a, b)
 }
 
-/// Picks the next batch among `pending` (indices into `ups`, in BFS order).
+/// Picks the next batch among `pending` (indices into `ups`, in BFS order): positions
+/// in `pending`.
 pub fn next_batch(ups: &[UserPatch], pending: &[usize], patch: usize, max: usize) -> Vec<usize> {
     if max <= 1 {
-        return pending.iter().take(1).copied().collect();
+        return (0..pending.len().min(1)).collect();
     }
     let mut seen: Vec<(usize, usize)> = Vec::new();
     let mut batch = Vec::new();
-    for &i in pending.iter().take(BATCH_SCAN) {
+    for (pos, &i) in pending.iter().enumerate().take(BATCH_SCAN) {
         let c = (ups[i].cx, ups[i].cy);
         if !seen.iter().any(|&s| interact(patch, s, c)) {
-            batch.push(i);
+            batch.push(pos);
             if batch.len() == max {
                 break;
             }
@@ -125,9 +126,9 @@ pub fn place_features(
     let (w, h) = canvas.full_size();
     let blocks: Vec<&[UserPatch]> = ups.chunks(set.block).collect();
     let mut st = PlacementStats::default();
-    // candidates of the user patches that have arrived, by user patch index
-    let mut cands: Vec<Option<Vec<ScoredCandidate>>> = vec![None; ups.len()];
-    let mut pending: Vec<usize> = Vec::new();
+    // user patches that have arrived and wait for round 2, in BFS order, with their
+    // candidates
+    let mut pending: Vec<(usize, Vec<ScoredCandidate>)> = Vec::new();
     let mut done = 0u64;
     std::thread::scope(|scope| -> Result<(), ShardError> {
         let (tx, rx) = std::sync::mpsc::sync_channel::<Result<(Vec<BestSet>, f64), ShardError>>(2);
@@ -140,7 +141,7 @@ pub fn place_features(
                 let t = Instant::now();
                 let queries: Vec<_> = block.iter().map(|u| u.query.clone()).collect();
                 // every shard scores the block at once (remote shards wait on the network)
-                let answers = on_every_shard(shards, pool, |_, shard| shard.score_block(&queries, set.k));
+                let answers = on_every_shard(shards, pool, |shard| shard.score_block(&queries, set.k));
                 let mut sets = Vec::new();
                 for a in answers {
                     match a {
@@ -158,8 +159,7 @@ pub fn place_features(
         });
         let mut arrived = 0usize;
         let mut receive = |msg: Result<(Vec<BestSet>, f64), ShardError>,
-                           cands: &mut Vec<Option<Vec<ScoredCandidate>>>,
-                           pending: &mut Vec<usize>,
+                           pending: &mut Vec<(usize, Vec<ScoredCandidate>)>,
                            st: &mut PlacementStats|
          -> Result<(), ShardError> {
             let (sets, secs) = msg?;
@@ -167,7 +167,6 @@ pub fn place_features(
             let block = blocks[arrived];
             arrived += 1;
             for u in block {
-                let i = u.id as usize;
                 let mut c: Vec<ScoredCandidate> =
                     sets.iter().filter(|s| s.user_patch == u.id).flat_map(|s| s.entries.iter().cloned()).collect();
                 c.sort_by(|a, b| a.order(b));
@@ -181,8 +180,7 @@ pub fn place_features(
                     st.fallbacks.push(note);
                 }
                 st.candidates += c.len();
-                cands[i] = Some(c);
-                pending.push(i);
+                pending.push((u.id as usize, c));
             }
             Ok(())
         };
@@ -191,13 +189,13 @@ pub fn place_features(
                 let tw = Instant::now();
                 let msg = rx.recv().map_err(|_| ShardError::Unavailable("round-1 producer stopped".into()))?;
                 st.wait_s += tw.elapsed().as_secs_f64();
-                receive(msg, &mut cands, &mut pending, &mut st)?;
+                receive(msg, &mut pending, &mut st)?;
             }
             // take whatever else has arrived, up to the look-ahead: a longer look-ahead
             // finds larger batches
             while pending.len() < LOOKAHEAD {
                 let Ok(msg) = rx.try_recv() else { break };
-                receive(msg, &mut cands, &mut pending, &mut st)?;
+                receive(msg, &mut pending, &mut st)?;
             }
             let max = if canvas.base_level.is_none() {
                 1
@@ -206,29 +204,29 @@ pub fn place_features(
             } else {
                 set.max_batch
             };
-            let batch = next_batch(ups, &pending, p, max);
+            let order: Vec<usize> = pending.iter().map(|e| e.0).collect();
+            let batch = next_batch(ups, &order, p, max);
             st.batches += 1;
             let _b = tracing::debug_span!("batch", user_patches = batch.len()).entered();
             let results: Vec<(Canvas, bool)> = pool.install(|| {
                 batch
                     .par_iter()
-                    .map(|&i| {
-                        let u = &ups[i];
+                    .map(|&pos| {
+                        let (i, c) = &pending[pos];
+                        let u = &ups[*i];
                         let _m = tracing::debug_span!("merge", user_patch = u.id).entered();
                         let r = Rect { x0: u.cx, y0: u.cy, x1: u.cx + 1, y1: u.cy + 1 };
                         let mut sub = canvas.extract(r.grow(p / 2 + 2, w, h), r);
-                        let c = cands[i].as_deref().unwrap_or(&[]);
                         let placed = select_and_merge(&mut sub, u.cx, u.cy, c, set.seed).is_some();
                         (sub, placed)
                     })
                     .collect()
             });
-            for ((sub, placed), &i) in results.iter().zip(&batch) {
+            for (sub, placed) in &results {
                 canvas.commit(sub);
                 st.placed += *placed as usize;
-                cands[i] = None;
             }
-            pending.retain(|i| !batch.contains(i));
+            pending = pending.into_iter().enumerate().filter(|(k, _)| !batch.contains(k)).map(|(_, e)| e).collect();
             done += batch.len() as u64;
             (set.progress)(done, ups.len() as u64);
         }

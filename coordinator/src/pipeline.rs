@@ -46,7 +46,7 @@ pub type Shards = Vec<Arc<dyn ShardScorer>>;
 pub fn on_every_shard<T: Send>(
     shards: &[Arc<dyn ShardScorer>],
     pool: &rayon::ThreadPool,
-    call: impl Fn(usize, &dyn ShardScorer) -> Result<T, ShardError> + Sync,
+    call: impl Fn(&dyn ShardScorer) -> Result<T, ShardError> + Sync,
 ) -> Vec<Result<T, ShardError>> {
     let span = tracing::Span::current();
     std::thread::scope(|s| {
@@ -58,7 +58,7 @@ pub fn on_every_shard<T: Send>(
                 s.spawn(move || {
                     let _g = span.enter();
                     let _w = tracing::debug_span!("worker_call", shard = i).entered();
-                    pool.install(|| call(i, shard.as_ref()))
+                    pool.install(|| call(shard.as_ref()))
                 })
             })
             .collect();

@@ -19,7 +19,7 @@ use crate::canvas::{Canvas, Placement};
 use crate::window_scoring::{cut_and_merge, Target};
 use rayon::prelude::*;
 use ridgeline_terrain::costs::{
-    finite_std, jitter, noise_cost, noise_variances, overlap_cost, ALPHA_N, ALPHA_O, REPEAT_PENALTY, SEED_JITTER,
+    finite_std, jitter, noise_cost, noise_variances, overlap_cost, repeats, ALPHA_N, ALPHA_O, REPEAT_PENALTY, SEED_JITTER,
 };
 use ridgeline_terrain::shard::ScoredCandidate;
 
@@ -44,7 +44,6 @@ pub fn select_and_merge(canvas: &mut Canvas, cx: usize, cy: usize, cands: &[Scor
     let relief = t.relief(cand_relief[cand_relief.len() / 2]);
     let strong = cand_relief[cand_relief.len() * 3 / 4].max(1e-3);
     let avoid = canvas.avoid_list(cx, cy);
-    let half = (p / 2) as i64;
     let mut scored: Vec<(f32, usize)> = cands
         .par_iter()
         .enumerate()
@@ -54,10 +53,7 @@ pub fn select_and_merge(canvas: &mut Canvas, cx: usize, cy: usize, cands: &[Scor
                 (Some(u), Some(v)) => noise_cost(&u, &v),
                 _ => 0.0,
             };
-            let repeated = avoid.iter().any(|&(src, x, y)| {
-                src == c.cand.source && (x as i64 - c.cand.x as i64).abs() < half && (y as i64 - c.cand.y as i64).abs() < half
-            });
-            let rep = if repeated { REPEAT_PENALTY } else { 0.0 };
+            let rep = if repeats(p, &avoid, c.cand.source, c.cand.x, c.cand.y) { REPEAT_PENALTY } else { 0.0 };
             let j =
                 SEED_JITTER * jitter(seed, &[c.cand.source as u64, c.cand.x as u64, c.cand.y as u64, c.cand.variant.0 as u64]);
             let weak = ALPHA_P * (1.0 - cand_std[i] / strong).max(0.0);

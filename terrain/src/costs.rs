@@ -40,22 +40,14 @@ pub fn jitter(seed: u64, parts: &[u64]) -> f32 {
     (h >> 40) as f32 / (1u64 << 24) as f32
 }
 
-/// The repetition rule: a placement of source region `(sx, sy)` at output centre `c`
-/// repeats an earlier one of the same source at `(px, py)` placed at `pc` when the
-/// source regions overlap by more than half a patch each way and the output centres
-/// are within three patches (Crause §6.6 penalises only the previous patch; any
-/// nearby reuse is as visible).
-pub fn repeats(
-    patch: usize,
-    earlier: (u32, u32),
-    earlier_centre: (usize, usize),
-    src: (u32, u32),
-    centre: (usize, usize),
-) -> bool {
-    let p = patch as i64;
-    (earlier.0 as i64 - src.0 as i64).abs() < p / 2
-        && (earlier.1 as i64 - src.1 as i64).abs() < p / 2
-        && near_centre(patch, earlier_centre, centre)
+/// The repetition rule (Crause §6.6 penalises only the previous patch; any nearby
+/// reuse is as visible): a candidate repeats an earlier placement when it comes from
+/// the same source and its source region overlaps the earlier one's by more than half
+/// a patch each way, `avoid` being the (source, x, y) of the placements whose output
+/// centres are within three patches ([`near_centre`]).
+pub fn repeats(patch: usize, avoid: &[(u32, u32, u32)], source: u32, x: u32, y: u32) -> bool {
+    let half = (patch / 2) as i64;
+    avoid.iter().any(|&(s, ax, ay)| s == source && (ax as i64 - x as i64).abs() < half && (ay as i64 - y as i64).abs() < half)
 }
 
 /// Whether two output centres are close enough for the repetition rule to compare

@@ -119,8 +119,8 @@ pub struct SourceInfo {
     pub featureless: usize,
     pub cache_hit: bool,
     /// Relief (standard deviation, metres) of each featureless candidate, so the
-    /// coordinator can normalise fill costs without holding the pool.
-    #[serde(default)]
+    /// coordinator can normalise fill costs without holding the pool (not in reports).
+    #[serde(default, skip_serializing)]
     pub featureless_relief: Vec<f32>,
 }
 

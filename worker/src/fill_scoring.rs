@@ -14,23 +14,20 @@
 
 use crate::exemplar_store::Source;
 use rayon::prelude::*;
-use ridgeline_terrain::costs::{jitter, noise_cost, ALPHA_N, ALPHA_O, BETA_C, REPEAT_PENALTY, SEED_JITTER};
+use ridgeline_terrain::costs::{jitter, noise_cost, repeats, ALPHA_N, ALPHA_O, BETA_C, REPEAT_PENALTY, SEED_JITTER};
 use ridgeline_terrain::shard::{FillBestSet, FillCandidate, FillQuery};
 
 /// Scores one target against the featureless candidates of `sources` (variant maps
 /// from `variant_maps(patch)`) and keeps the `k` best in the total order.
 pub fn best_fill_set(sources: &[Source], maps: &[Vec<u32>], q: &FillQuery, seed: u64, k: usize, patch: usize) -> FillBestSet {
     let coherence = |source: u32| q.coherence.iter().find(|c| c.0 == source).map(|c| c.1).unwrap_or(0.0);
-    let half = (patch / 2) as i64;
     let mut scored: Vec<(f32, u32, u32, u32, u8, usize, usize)> = sources
         .par_iter()
         .enumerate()
         .flat_map_iter(|(si, s)| {
             let coh = coherence(s.id);
             s.featureless.iter().enumerate().flat_map(move |(ci, c)| {
-                let rep = q.avoid.iter().any(|&(src, x, y)| {
-                    src == s.id && (x as i64 - c.x as i64).abs() < half && (y as i64 - c.y as i64).abs() < half
-                });
+                let rep = repeats(patch, &q.avoid, s.id, c.x, c.y);
                 let cn = q.noise.map(|u| noise_cost(&u, &c.noise)).unwrap_or(0.0);
                 maps.iter().enumerate().map(move |(vi, map)| {
                     let (mut sum, mut sum2) = (0f64, 0f64);
