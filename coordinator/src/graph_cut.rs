@@ -318,20 +318,28 @@ pub struct Seam {
 /// leaves, so slopes matter as much as heights.
 pub fn find_seam(w: usize, h: usize, old: &[f32], new: &[f32], force: &[Force]) -> Seam {
     let n = w * h;
-    let mut node = vec![usize::MAX; n];
+    // nodes: filled cells the cut may give to either side; pinned cells are not nodes
+    // (their edges become terminal capacities, which gives the same cut)
+    const PIN_NEW: usize = usize::MAX;
+    const PIN_OLD: usize = usize::MAX - 1;
+    let mut node = vec![PIN_NEW; n];
     let mut count = 0;
     for i in 0..n {
-        if !old[i].is_nan() && force[i] != Force::New {
+        if old[i].is_nan() || force[i] == Force::New {
+            continue;
+        }
+        if force[i] == Force::Old {
+            node[i] = PIN_OLD;
+        } else {
             node[i] = count;
             count += 1;
         }
     }
-    let mut labels: Vec<Label> = (0..n).map(|i| if node[i] == usize::MAX { Label::New } else { Label::Old }).collect();
-    if count == 0 {
-        return Seam { labels, cost: 0.0, edges: 0 };
-    }
+    let mut labels: Vec<Label> = (0..n).map(|i| if node[i] == PIN_NEW { Label::New } else { Label::Old }).collect();
     let mut g = FlowGraph::new(count);
     let mut edges = 0usize;
+    // edges between an old-pinned and a new-pinned cell are cut whatever the labels
+    let mut fixed_cost = 0f64;
     let weight = |a: usize, b: usize| -> f64 {
         let da = (old[a] - new[a]).abs();
         let db = (old[b] - new[b]).abs();
@@ -351,24 +359,25 @@ pub fn find_seam(w: usize, h: usize, old: &[f32], new: &[f32], force: &[Force]) 
                 edges += 1;
                 let c = weight(i, j);
                 match (node[i], node[j]) {
-                    (usize::MAX, usize::MAX) => {}
-                    (usize::MAX, b) => g.add_tweights(b, 0.0, c),
-                    (a, usize::MAX) => g.add_tweights(a, 0.0, c),
+                    (PIN_NEW, PIN_NEW) | (PIN_OLD, PIN_OLD) => {}
+                    (PIN_NEW, PIN_OLD) | (PIN_OLD, PIN_NEW) => fixed_cost += c,
+                    (PIN_NEW, b) | (b, PIN_NEW) => g.add_tweights(b, 0.0, c),
+                    (PIN_OLD, b) | (b, PIN_OLD) => g.add_tweights(b, c, 0.0),
                     (a, b) => g.add_edge(a, b, c),
                 }
             }
-            if node[i] != usize::MAX && force[i] == Force::Old {
-                g.constrain(node[i], true);
-            }
         }
+    }
+    if count == 0 {
+        return Seam { labels, cost: fixed_cost, edges };
     }
     let (cost, side) = g.min_cut();
     for i in 0..n {
-        if node[i] != usize::MAX && !side[node[i]] {
+        if node[i] < count && !side[node[i]] {
             labels[i] = Label::New;
         }
     }
-    Seam { labels, cost, edges }
+    Seam { labels, cost: cost + fixed_cost, edges }
 }
 
 #[cfg(test)]

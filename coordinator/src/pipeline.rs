@@ -203,6 +203,8 @@ pub struct SynthReport {
     /// ridge-shaped cross profile at patch/4, and the same for valleys.
     pub ridge_adherence: crate::quality::Adherence,
     pub valley_adherence: crate::quality::Adherence,
+    /// Gradient jumps across merge seams against those inside patches.
+    pub seams: crate::quality::SeamScore,
     /// Peak resident memory of the process so far (Linux `VmHWM`), when known.
     pub peak_rss_bytes: Option<u64>,
 }
@@ -398,6 +400,7 @@ fn synthesize_in(
         crate::quality::adherence(&canvas.heights, &sk.ridges, ridgeline_terrain::FeatureKind::Ridge, d, 4, 8);
     report.valley_adherence =
         crate::quality::adherence(&canvas.heights, &sk.valleys, ridgeline_terrain::FeatureKind::Valley, d, 4, 8);
+    report.seams = crate::quality::seam_score(&canvas.heights, &canvas.provenance.data);
 
     for pl in &canvas.placements {
         let name = report.exemplars.iter().find(|e| e.source == pl.source).map(|e| e.name.clone()).unwrap_or_default();

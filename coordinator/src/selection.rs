@@ -16,6 +16,7 @@
 //! seed and never more.
 
 use crate::canvas::{Canvas, Placement};
+use crate::merge::SeamLimits;
 use crate::window_scoring::{cut_and_merge, Target};
 use rayon::prelude::*;
 use ridgeline_terrain::costs::{
@@ -61,17 +62,25 @@ pub fn select_and_merge(canvas: &mut Canvas, cx: usize, cy: usize, cands: &[Scor
         })
         .collect();
     scored.sort_by(|a, b| a.0.total_cmp(&b.0).then(cands[a.1].cand.cmp(&cands[b.1].cand)));
-    let (index, _) = cut_and_merge(canvas, &t, &scored, &|i| cands[i].pixels.clone(), relief, p as f32 / 8.0, |i| {
-        let c = &cands[i];
-        Placement {
-            source: c.cand.source,
-            src_x: c.cand.x,
-            src_y: c.cand.y,
-            variant: c.cand.variant.0,
-            cx,
-            cy,
-            featureless: false,
-        }
-    })?;
+    let (index, _) = cut_and_merge(
+        canvas,
+        &t,
+        &scored,
+        &|i| cands[i].pixels.clone(),
+        relief,
+        SeamLimits { keep_radius: p as f32 / 8.0, band: None },
+        |i| {
+            let c = &cands[i];
+            Placement {
+                source: c.cand.source,
+                src_x: c.cand.x,
+                src_y: c.cand.y,
+                variant: c.cand.variant.0,
+                cx,
+                cy,
+                featureless: false,
+            }
+        },
+    )?;
     Some(index)
 }

@@ -9,7 +9,7 @@
 
 use crate::canvas::{Canvas, Placement, Win};
 use crate::graph_cut::{Force, Seam};
-use crate::merge::{seam_for, MergeStats};
+use crate::merge::{seam_for, MergeStats, SeamLimits};
 use rayon::prelude::*;
 use ridgeline_terrain::costs::{finite_std, noise_variances, NOISE_LEVELS};
 
@@ -86,19 +86,18 @@ pub fn graph_cut_choice(
 }
 
 /// The shared ending of both stages: graph cut of the best-ranked candidates of
-/// `order` at `target` (cells within `keep_radius` of the centre must take the new
-/// patch), then the gradient-domain merge of the winner, recorded as
-/// `placement(index)`. Returns the chosen index and the merge's statistics.
+/// `order` at `target` (within the stage's [`SeamLimits`]), then the gradient-domain merge of the winner,
+/// recorded as `placement(index)`. Returns the chosen index and the merge's statistics.
 pub fn cut_and_merge(
     canvas: &mut Canvas,
     target: &Target,
     order: &[(f32, usize)],
     pixels: &(dyn Fn(usize) -> Vec<f32> + Sync),
     relief: f32,
-    keep_radius: f32,
+    limits: SeamLimits,
     placement: impl FnOnce(usize) -> Placement,
 ) -> Option<(usize, MergeStats)> {
-    let force = canvas.forces(&target.win, &target.old, keep_radius);
+    let force = canvas.forces(&target.win, &target.old, limits);
     let choice = graph_cut_choice(&target.win, &target.old, &force, order, pixels, relief)?;
     let stats = canvas.merge(&target.win, &choice.new, &choice.seam, placement(choice.index));
     Some((choice.index, stats))
