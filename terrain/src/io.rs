@@ -38,13 +38,17 @@ pub fn decode_image(path: &Path, bytes: &[u8], max_side: u32) -> Result<image::D
     let mut limits = image::Limits::default();
     limits.max_image_width = Some(max_side);
     limits.max_image_height = Some(max_side);
+    // the side limit is the bound; the decoder's default 512 MiB allocation cap would
+    // refuse sketches above about 23000² that `max_side` lets through (8 bytes per
+    // pixel covers 16-bit RGBA)
+    limits.max_alloc = Some(w as u64 * h as u64 * 8 + (64 << 20));
     reader.limits(limits);
     reader.decode().map_err(|e| decode_err(path, e))
 }
 
 /// Decodes a grayscale DEM image (16- or 8-bit) as raw sample values.
 pub fn decode_dem_png(path: &Path, bytes: &[u8], max_side: u32) -> Result<Grid<f32>> {
-    let g = decode_image(path, bytes, max_side)?.to_luma16();
+    let g = decode_image(path, bytes, max_side)?.into_luma16();
     let (w, h) = (g.width() as usize, g.height() as usize);
     Ok(Grid::from_vec(w, h, g.into_raw().into_iter().map(|v| v as f32).collect()))
 }
@@ -57,7 +61,8 @@ pub fn read_dem_png(path: &Path, max_side: u32) -> Result<Grid<f32>> {
 
 /// Decodes a sketch as 8-bit luminance.
 pub fn decode_sketch(path: &Path, bytes: &[u8], max_side: u32) -> Result<Grid<u8>> {
-    let g = decode_image(path, bytes, max_side)?.to_luma8();
+    // `into_luma8` keeps an 8-bit grey image's buffer instead of copying it
+    let g = decode_image(path, bytes, max_side)?.into_luma8();
     let (w, h) = (g.width() as usize, g.height() as usize);
     Ok(Grid::from_vec(w, h, g.into_raw()))
 }

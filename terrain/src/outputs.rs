@@ -56,14 +56,43 @@ pub fn encode_tiff_f32_with_cell(h: &Heightfield, cell: Option<f32>) -> Result<V
 /// Streams a heightfield as a single-channel 32-bit float TIFF into `w` (strip by
 /// strip: no second copy of the terrain in memory).
 pub fn write_tiff_f32<W: std::io::Write + std::io::Seek>(w: &mut W, h: &Heightfield, cell: Option<f32>) -> std::io::Result<()> {
-    let e = |e: tiff::TiffError| std::io::Error::other(e.to_string());
-    let mut enc = tiff::encoder::TiffEncoder::new(w).map_err(e)?;
-    let mut img = enc.new_image::<tiff::encoder::colortype::Gray32Float>(h.width as u32, h.height as u32).map_err(e)?;
-    if let Some(c) = cell {
-        let scale = [c as f64, c as f64, 0.0];
-        img.encoder().write_tag(tiff::tags::Tag::ModelPixelScaleTag, &scale[..]).map_err(e)?;
+    write_tiff_f32_as(w, h, cell, needs_bigtiff(h))
+}
+
+/// Pixel bytes above which a float TIFF is written as BigTIFF: classic TIFF holds
+/// 32-bit offsets, so a terrain above about 32000² (4 GiB of samples) cannot be one.
+/// Below it the classic format is kept, which more tools read.
+pub const BIGTIFF_ABOVE_BYTES: u64 = (u32::MAX as u64) - (256 << 20);
+
+fn needs_bigtiff(h: &Heightfield) -> bool {
+    (h.data.len() as u64) * 4 > BIGTIFF_ABOVE_BYTES
+}
+
+fn write_tiff_f32_as<W: std::io::Write + std::io::Seek>(
+    w: &mut W,
+    h: &Heightfield,
+    cell: Option<f32>,
+    big: bool,
+) -> std::io::Result<()> {
+    use tiff::encoder::{colortype::Gray32Float, TiffEncoder, TiffKind};
+    fn write<W: std::io::Write + std::io::Seek, K: TiffKind>(
+        enc: &mut TiffEncoder<W, K>,
+        h: &Heightfield,
+        cell: Option<f32>,
+    ) -> tiff::TiffResult<()> {
+        let mut img = enc.new_image::<Gray32Float>(h.width as u32, h.height as u32)?;
+        if let Some(c) = cell {
+            let scale = [c as f64, c as f64, 0.0];
+            img.encoder().write_tag(tiff::tags::Tag::ModelPixelScaleTag, &scale[..])?;
+        }
+        img.write_data(&h.data)
     }
-    img.write_data(&h.data).map_err(e)
+    let result = if big {
+        TiffEncoder::new_big(w).and_then(|mut enc| write(&mut enc, h, cell))
+    } else {
+        TiffEncoder::new(w).and_then(|mut enc| write(&mut enc, h, cell))
+    };
+    result.map_err(|e| std::io::Error::other(e.to_string()))
 }
 
 /// Encodes a heightfield as a single-channel 32-bit float TIFF.
@@ -275,6 +304,20 @@ mod tests {
         let _ = std::fs::remove_dir_all(&d);
         std::fs::create_dir_all(&d).unwrap();
         d
+    }
+
+    #[test]
+    fn bigtiff_output_reads_back_exactly() {
+        // the format very large terrains are written in, checked at a small size
+        let h = sample(29, 17);
+        let mut buf = std::io::Cursor::new(Vec::new());
+        write_tiff_f32_as(&mut buf, &h, Some(30.0), true).unwrap();
+        let bytes = buf.into_inner();
+        assert_eq!(&bytes[..4], b"II+\0", "BigTIFF header");
+        let back = parse_tiff(Path::new("big.tif"), &bytes, 1000).unwrap();
+        assert_eq!(back.cell_size_m, Some(30.0));
+        assert_eq!(back.heights.data, h.data);
+        assert!(!needs_bigtiff(&h) && needs_bigtiff(&Grid::new(33000, 33000, 0.0)));
     }
 
     #[test]
