@@ -9,7 +9,6 @@
 //! than Dinic there — and the crates that exist either pull in a general graph
 //! library or do not expose the cut.
 
-const INF: f64 = 1e30;
 const NONE: usize = usize::MAX;
 const TERMINAL: usize = usize::MAX - 1;
 const ORPHAN: usize = usize::MAX - 2;
@@ -51,14 +50,6 @@ impl FlowGraph {
         let m = source.min(sink);
         self.flow += m;
         self.tr[a] += source - sink;
-    }
-    /// Ties node `a` to the source (`to_source`) or the sink with infinite capacity.
-    pub fn constrain(&mut self, a: usize, to_source: bool) {
-        if to_source {
-            self.add_tweights(a, INF, 0.0);
-        } else {
-            self.add_tweights(a, 0.0, INF);
-        }
     }
 
     /// Runs max-flow; returns the flow value and, per node, whether it is on the
@@ -395,8 +386,8 @@ mod tests {
         for (y, &c) in h01.iter().enumerate() {
             g.add_edge(at(0, y), at(1, y), c);
             g.add_edge(at(1, y), at(2, y), 2.0);
-            g.constrain(at(0, y), true);
-            g.constrain(at(2, y), false);
+            g.add_tweights(at(0, y), 1e30, 0.0);
+            g.add_tweights(at(2, y), 0.0, 1e30);
         }
         for y in 0..2 {
             for x in 0..3 {

@@ -327,7 +327,7 @@ impl TileFill {
             &order,
             &|i| cands[i].pixels.clone(),
             relief,
-            SeamLimits { keep_radius: 0.0, band },
+            SeamLimits { keep_radius: 0.0, band: Some(band) },
             |i| fill_placement(&cands[i], cx, cy),
         );
         let Some((_, m)) = placed else {
@@ -362,9 +362,9 @@ impl TileFill {
     }
 }
 
-/// Seam band of hole filling (see `Canvas::forces`): patch/8 cells, at least 4.
-fn fill_band(p: usize) -> Option<usize> {
-    Some((p / 8).max(4))
+/// Seam band of hole filling (see `SeamLimits`): patch/8 cells, at least 4.
+fn fill_band(p: usize) -> usize {
+    (p / 8).max(4)
 }
 
 /// The record of a featureless candidate placed at (cx, cy).

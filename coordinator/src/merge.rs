@@ -59,30 +59,46 @@ pub struct SeamLimits {
     pub band: Option<usize>,
 }
 
-/// Pins every `Free` cell farther than `band` 8-connected steps from all `New` cells
-/// to `Old` (breadth-first from the `New` cells; the window is at most patch² cells).
-fn pin_beyond_band(f: &mut [Force], w: usize, h: usize, band: usize) {
+/// Breadth-first step counts on a `w x h` grid from the `seeds`, moving 8-connected
+/// (`diagonal`) or 4-connected into cells where `open` holds, up to `limit` steps;
+/// `u16::MAX` where no seed is that close.
+fn steps_from(
+    w: usize,
+    h: usize,
+    seeds: impl Iterator<Item = usize>,
+    limit: usize,
+    diagonal: bool,
+    open: impl Fn(usize) -> bool,
+) -> Vec<u16> {
     let mut dist = vec![u16::MAX; w * h];
-    let mut queue: std::collections::VecDeque<usize> = (0..w * h).filter(|&k| f[k] == Force::New).collect();
-    for &k in &queue {
+    let mut queue = std::collections::VecDeque::new();
+    for k in seeds {
         dist[k] = 0;
+        queue.push_back(k);
     }
     while let Some(k) = queue.pop_front() {
         let d = dist[k];
-        if d as usize >= band {
+        if d as usize >= limit {
             continue;
         }
         let (x, y) = (k % w, k / w);
         for ny in y.saturating_sub(1)..(y + 2).min(h) {
             for nx in x.saturating_sub(1)..(x + 2).min(w) {
                 let q = ny * w + nx;
-                if dist[q] == u16::MAX {
+                if (diagonal || nx == x || ny == y) && dist[q] == u16::MAX && open(q) {
                     dist[q] = d + 1;
                     queue.push_back(q);
                 }
             }
         }
     }
+    dist
+}
+
+/// Pins every `Free` cell farther than `band` 8-connected steps from all `New` cells
+/// to `Old` (the window is at most patch² cells).
+fn pin_beyond_band(f: &mut [Force], w: usize, h: usize, band: usize) {
+    let dist = steps_from(w, h, (0..w * h).filter(|&k| f[k] == Force::New), band, true, |_| true);
     for (fk, dk) in f.iter_mut().zip(&dist) {
         if *fk == Force::Free && *dk == u16::MAX {
             *fk = Force::Old;
@@ -304,29 +320,9 @@ impl Canvas {
                 guess[e] = bb[e] + dv;
             }
         }
-        // cross-fade band: unknown cells within FADE steps of a fixed cell, by distance
-        let fade = SEAM_FADE;
-        let mut near = vec![u8::MAX; n];
-        let mut queue: std::collections::VecDeque<usize> = std::collections::VecDeque::new();
-        for e in 0..n {
-            if !unknown[e] && !fixed[e].is_nan() {
-                near[e] = 0;
-                queue.push_back(e);
-            }
-        }
-        while let Some(e) = queue.pop_front() {
-            let d = near[e];
-            if d as usize >= fade {
-                continue;
-            }
-            let (i, j) = (e % ew, e / ew);
-            for (ok, q) in [(i > 0, e.wrapping_sub(1)), (i + 1 < ew, e + 1), (j > 0, e.wrapping_sub(ew)), (j + 1 < eh, e + ew)] {
-                if ok && unknown[q] && near[q] == u8::MAX {
-                    near[q] = d + 1;
-                    queue.push_back(q);
-                }
-            }
-        }
+        // cross-fade band: unknown cells within SEAM_FADE steps of a fixed cell
+        let fixed_cells = (0..n).filter(|&e| !unknown[e] && !fixed[e].is_nan());
+        let near = steps_from(ew, eh, fixed_cells, SEAM_FADE, false, |q| unknown[q]);
         // target gradients: the new patch's own, corrected by the interpolated mismatch
         let mut tdx = vec![0f32; n];
         let mut tdy = vec![0f32; n];
@@ -357,8 +353,8 @@ impl Canvas {
                     }
                     let mut t = if gb.is_nan() { 0.0 } else { gb } + dsum / dn;
                     let d = near[e].min(near[q]) as usize;
-                    if d >= 1 && d <= fade && !aa[e].is_nan() && !aa[q].is_nan() {
-                        let wgt = 1.0 - d as f32 / (fade + 1) as f32;
+                    if (1..=SEAM_FADE).contains(&d) && !aa[e].is_nan() && !aa[q].is_nan() {
+                        let wgt = 1.0 - d as f32 / (SEAM_FADE + 1) as f32;
                         t = (1.0 - wgt) * t + wgt * (aa[q] - aa[e]);
                     }
                     target[e] = t;

@@ -86,8 +86,9 @@ pub fn graph_cut_choice(
 }
 
 /// The shared ending of both stages: graph cut of the best-ranked candidates of
-/// `order` at `target` (within the stage's [`SeamLimits`]), then the gradient-domain merge of the winner,
-/// recorded as `placement(index)`. Returns the chosen index and the merge's statistics.
+/// `order` at `target` (within the stage's [`SeamLimits`]), then the gradient-domain
+/// merge of the winner, recorded as `placement(index)`. Returns the chosen index and
+/// the merge's statistics.
 pub fn cut_and_merge(
     canvas: &mut Canvas,
     target: &Target,
