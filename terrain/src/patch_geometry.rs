@@ -254,6 +254,32 @@ pub fn extract_patch(src: &Grid<f32>, cx: usize, cy: usize, size: usize, v: Vari
         }
         return out;
     }
+    if v.is_exact() {
+        // an exact variant maps the patch's corners to source cells; when all four
+        // lie inside, each output row is a walk with a constant index step
+        let h = (size / 2) as i64;
+        let at = |ox: i64, oy: i64| {
+            let (sx, sy) = v.inverse(ox as f32, oy as f32);
+            (cx as i64 + sx as i64, cy as i64 + sy as i64)
+        };
+        let corners = [at(-h, -h), at(size as i64 - 1 - h, -h), at(-h, size as i64 - 1 - h)];
+        let inside = |(x, y): (i64, i64)| x >= 0 && y >= 0 && (x as usize) < src.width && (y as usize) < src.height;
+        let far = at(size as i64 - 1 - h, size as i64 - 1 - h);
+        if corners.iter().all(|&c| inside(c)) && inside(far) {
+            let wd = src.width as i64;
+            let flat = |(x, y): (i64, i64)| y * wd + x;
+            let (start, next_i, next_j) = (flat(corners[0]), flat(at(1 - h, -h)), flat(at(-h, 1 - h)));
+            let (di, dj) = (next_i - start, next_j - start);
+            for j in 0..size as i64 {
+                let mut idx = start + j * dj;
+                for _ in 0..size {
+                    out.push(src.data[idx as usize]);
+                    idx += di;
+                }
+            }
+            return out;
+        }
+    }
     for j in 0..size {
         for i in 0..size {
             let (ox, oy) = (i as f32 - half, j as f32 - half);
@@ -317,6 +343,25 @@ mod tests {
             p.sort_by(f32::total_cmp);
             p.dedup();
             assert_eq!(p.len(), 64, "{v:?} repeats a pixel");
+        }
+    }
+
+    #[test]
+    fn exact_variant_rows_match_cell_by_cell_mapping() {
+        let src = Grid::from_vec(40, 30, (0..1200).map(|i| ((i * 7919) % 1013) as f32).collect());
+        for v in FEATURE_VARIANTS.iter().chain(FEATURELESS_VARIANTS.iter()).filter(|v| v.is_exact()) {
+            for (cx, cy, size) in [(20usize, 15usize, 8usize), (15, 12, 9), (2, 2, 8), (38, 28, 6)] {
+                let got = extract_patch(&src, cx, cy, size, *v);
+                let half = (size / 2) as f32;
+                for j in 0..size {
+                    for i in 0..size {
+                        let (sx, sy) = v.inverse(i as f32 - half, j as f32 - half);
+                        let x = ((cx as f32 + sx).round() as i64).clamp(0, 39) as usize;
+                        let y = ((cy as f32 + sy).round() as i64).clamp(0, 29) as usize;
+                        assert_eq!(got[j * size + i], src.get(x, y), "{v:?} at ({cx},{cy}) size {size}, cell ({i},{j})");
+                    }
+                }
+            }
         }
     }
 
