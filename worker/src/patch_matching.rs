@@ -10,9 +10,9 @@
 //! cost alone exceeds the current k-th best is skipped without changing the result.
 
 use crate::exemplar_store::Source;
-use ridgeline_terrain::costs::{angle_cost, profile_rms, ALPHA_A, ALPHA_F};
+use ridgeline_terrain::costs::{angle_cost, ALPHA_A, ALPHA_F};
 use ridgeline_terrain::feature_extraction::FeatureKind;
-use ridgeline_terrain::patch_geometry::{extract_patch, normalise_profile, FEATURE_VARIANTS};
+use ridgeline_terrain::patch_geometry::{extract_patch, FEATURE_VARIANTS};
 use ridgeline_terrain::shard::{BestSet, CandidateRef, ScoredCandidate, UserPatchQuery};
 
 /// A candidate under consideration, before its pixels are extracted.
@@ -52,6 +52,43 @@ impl TopK {
     }
 }
 
+/// Σq and Σq² of a user profile.
+fn profile_sums(q: &[f32]) -> (f64, f64) {
+    q.iter().fold((0.0, 0.0), |(s, s2), &v| (s + v as f64, s2 + v as f64 * v as f64))
+}
+
+/// The profile cost of one path in one pass over the gathered samples: the RMS
+/// difference between the user profile `q` and the candidate's samples normalised by
+/// their mean and range (floored at `min_range`), as
+/// `normalise_profile` + `profile_rms` define it, expanded into sums so no
+/// normalised copy is written: with d = x − x₀ (any shift cancels),
+/// Σ((d − m)/R − q)² = (Σd² − nm²)/R² − 2(Σdq − mΣq)/R + Σq².
+/// Sums are in f64, so the expansion loses nothing to cancellation.
+#[inline]
+fn profile_cost(data: &[f32], base: i64, offsets: &[i64], q: &[f32], (sq, sq2): (f64, f64), min_range: f32) -> f32 {
+    let n = offsets.len();
+    if n == 0 {
+        return 0.0;
+    }
+    let x0 = data[(base + offsets[0]) as usize];
+    let (mut s, mut s2, mut sdq) = (0f64, 0f64, 0f64);
+    let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+    for (&o, &qv) in offsets.iter().zip(q) {
+        let x = data[(base + o) as usize];
+        lo = lo.min(x);
+        hi = hi.max(x);
+        let d = (x - x0) as f64;
+        s += d;
+        s2 += d * d;
+        sdq += d * qv as f64;
+    }
+    let nf = n as f64;
+    let m = s / nf;
+    let r = (hi - lo).max(min_range) as f64;
+    let ss = ((s2 - nf * m * m) / (r * r) - 2.0 * (sdq - m * sq) / r + sq2).max(0.0);
+    (ss / nf).sqrt() as f32
+}
+
 /// Round 1 for one user patch against one source.
 pub fn best_set(src: &Source, q: &UserPatchQuery, k: usize, patch: usize) -> BestSet {
     let nodes = &src.nodes[match q.kind {
@@ -79,7 +116,7 @@ pub fn best_set(src: &Source, q: &UserPatchQuery, k: usize, patch: usize) -> Bes
         .collect();
     let mut top = TopK { k, items: Vec::with_capacity(k + 1) };
     let data = &src.heights.data;
-    let mut buf: Vec<f32> = Vec::new();
+    let q_sums: Vec<(f64, f64)> = q.profiles.iter().map(|p| profile_sums(p)).collect();
     let mut mapped: Vec<f32> = Vec::new();
     for node in nodes {
         let base = node.y as i64 * w + node.x as i64;
@@ -96,10 +133,7 @@ pub fn best_set(src: &Source, q: &UserPatchQuery, k: usize, patch: usize) -> Bes
             let mut sum = 0.0;
             let mut pruned = false;
             for (pi, path_off) in offsets[vi].iter().enumerate() {
-                buf.clear();
-                buf.extend(path_off.iter().map(|&o| data[(base + o) as usize]));
-                normalise_profile(&mut buf, src.min_range);
-                sum += profile_rms(&buf, &q.profiles[pi]);
+                sum += profile_cost(data, base, path_off, &q.profiles[pi], q_sums[pi], src.min_range);
                 if scale * sum + ALPHA_A * ca > bound {
                     pruned = true;
                     break;
@@ -129,4 +163,29 @@ pub fn best_set(src: &Source, q: &UserPatchQuery, k: usize, patch: usize) -> Bes
         })
         .collect();
     BestSet { user_patch: q.id, source: src.id, entries }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ridgeline_terrain::costs::profile_rms;
+    use ridgeline_terrain::patch_geometry::normalise_profile;
+
+    #[test]
+    fn one_pass_profile_cost_equals_normalise_then_rms() {
+        // heights in feet far from zero (cancellation would show), flat and steep paths
+        let data: Vec<f32> = (0..400).map(|i| 9000.0 + ((i * 37) % 101) as f32 * 3.7 - (i / 20) as f32 * 11.0).collect();
+        let flat = vec![7000.0f32; 400];
+        let mut q: Vec<f32> = (0..9).map(|i| ((i as f32) * 0.9).sin()).collect();
+        normalise_profile(&mut q, 0.05);
+        for (src, min_range) in [(&data, 1.0f32), (&data, 500.0), (&flat, 1.0)] {
+            for offsets in [vec![0i64, 21, 42, 63, 84, 105, 126, 147, 168], vec![5i64, 4, 3, 2, 1, 0, 20, 40, 60]] {
+                let mut v: Vec<f32> = offsets.iter().map(|&o| src[(100 + o) as usize]).collect();
+                normalise_profile(&mut v, min_range);
+                let want = profile_rms(&v, &q);
+                let got = profile_cost(src, 100, &offsets, &q, profile_sums(&q), min_range);
+                assert!((got - want).abs() <= 1e-5 * want.max(1.0), "{got} vs {want}");
+            }
+        }
+    }
 }
