@@ -100,7 +100,8 @@ fn rot(k: u8) -> (f32, f32) {
 pub fn angle_diff(a: f32, b: f32) -> f32 {
     let mut d = (a - b).abs();
     if d > 2.0 * PI {
-        d = d.rem_euclid(2.0 * PI);
+        // below 4π one subtraction is exact (Sterbenz) and equals the remainder
+        d = if d <= 4.0 * PI { d - 2.0 * PI } else { d.rem_euclid(2.0 * PI) };
     }
     if d > PI {
         d = 2.0 * PI - d;

@@ -21,6 +21,11 @@ use ridgeline_terrain::shard::{FillBestSet, FillCandidate, FillQuery};
 /// from `variant_maps(patch)`) and keeps the `k` best in the total order.
 pub fn best_fill_set(sources: &[Source], maps: &[Vec<u32>], q: &FillQuery, seed: u64, k: usize, patch: usize) -> FillBestSet {
     let coherence = |source: u32| q.coherence.iter().find(|c| c.0 == source).map(|c| c.1).unwrap_or(0.0);
+    // per variant, the candidate-pixel index of every sample: one gather per sample in
+    // the loop over candidates instead of two
+    let values: Vec<f32> = q.samples.iter().map(|s| s.1).collect();
+    let mapped: Vec<Vec<u32>> = maps.iter().map(|map| q.samples.iter().map(|&(i, _)| map[i as usize]).collect()).collect();
+    let (values, mapped) = (&values, &mapped);
     let mut scored: Vec<(f32, u32, u32, u32, u8, usize, usize)> = sources
         .par_iter()
         .enumerate()
@@ -29,10 +34,10 @@ pub fn best_fill_set(sources: &[Source], maps: &[Vec<u32>], q: &FillQuery, seed:
             s.featureless.iter().enumerate().flat_map(move |(ci, c)| {
                 let rep = repeats(patch, &q.avoid, s.id, c.x, c.y);
                 let cn = q.noise.map(|u| noise_cost(&u, &c.noise)).unwrap_or(0.0);
-                maps.iter().enumerate().map(move |(vi, map)| {
+                mapped.iter().enumerate().map(move |(vi, idx)| {
                     let (mut sum, mut sum2) = (0f64, 0f64);
-                    for &(i, v) in &q.samples {
-                        let d = (c.pixels[map[i as usize] as usize] - v) as f64;
+                    for (&m, &v) in idx.iter().zip(values) {
+                        let d = (c.pixels[m as usize] - v) as f64;
                         sum += d;
                         sum2 += d * d;
                     }
