@@ -90,14 +90,29 @@ pub fn profile_rms(a: &[f32], b: &[f32]) -> f32 {
 /// (Tasse gives candidates of another branch degree a very high cost; a soft penalty
 /// still lets them win when nothing of the right degree exists).
 pub fn angle_cost(user: &[f32], cand: &[f32]) -> f32 {
-    let mismatch = (user.len() as f32 - cand.len() as f32).abs() * 0.5;
+    angle_cost_by(user, cand, |c| c)
+}
+
+/// [`angle_cost`] against the candidate's exit angles mapped by variant `v`, without
+/// a copy of the mapped angles (the same value, bit for bit).
+pub fn angle_cost_mapped(user: &[f32], cand: &[f32], v: crate::patch_geometry::Variant) -> f32 {
+    angle_cost_by(user, cand, |c| v.map_angle(c))
+}
+
+/// The branch-count term of [`angle_cost`], a lower bound of it in every variant.
+pub fn branch_mismatch(user: &[f32], cand: &[f32]) -> f32 {
+    (user.len() as f32 - cand.len() as f32).abs() * 0.5
+}
+
+fn angle_cost_by(user: &[f32], cand: &[f32], map: impl Fn(f32) -> f32) -> f32 {
+    let mismatch = branch_mismatch(user, cand);
     if user.is_empty() || cand.is_empty() {
         return mismatch;
     }
     let mut s = 0.0;
     for &u in user {
-        let d =
-            cand.iter().map(|&c| crate::patch_geometry::angle_diff(u, c)).fold(f32::INFINITY, f32::min) / std::f32::consts::PI;
+        let d = cand.iter().map(|&c| crate::patch_geometry::angle_diff(u, map(c))).fold(f32::INFINITY, f32::min)
+            / std::f32::consts::PI;
         s += d * d;
     }
     s / user.len() as f32 + mismatch

@@ -280,6 +280,32 @@ pub fn extract_patch(src: &Grid<f32>, cx: usize, cy: usize, size: usize, v: Vari
             }
             return out;
         }
+    } else {
+        // a 45° variant well inside the source: the same bilinear arithmetic as
+        // `sample_bilinear`, without its clamps (the four taps always exist) and with
+        // truncation for floor (coordinates are positive)
+        let pos = |i: usize, j: usize| {
+            let (sx, sy) = v.inverse(i as f32 - half, j as f32 - half);
+            (cx as f32 + sx, cy as f32 + sy)
+        };
+        let ends = [pos(0, 0), pos(size - 1, 0), pos(0, size - 1), pos(size - 1, size - 1)];
+        let (wf, hf) = (src.width as f32, src.height as f32);
+        if ends.iter().all(|&(x, y)| x >= 1.0 && y >= 1.0 && x <= wf - 3.0 && y <= hf - 3.0) {
+            let w = src.width;
+            let d = &src.data;
+            for j in 0..size {
+                for i in 0..size {
+                    let (px, py) = pos(i, j);
+                    let (x0, y0) = (px as usize, py as usize);
+                    let (fx, fy) = (px - x0 as f32, py - y0 as f32);
+                    let k = y0 * w + x0;
+                    let a = d[k] * (1.0 - fx) + d[k + 1] * fx;
+                    let b = d[k + w] * (1.0 - fx) + d[k + w + 1] * fx;
+                    out.push(a * (1.0 - fy) + b * fy);
+                }
+            }
+            return out;
+        }
     }
     for j in 0..size {
         for i in 0..size {
@@ -344,6 +370,23 @@ mod tests {
             p.sort_by(f32::total_cmp);
             p.dedup();
             assert_eq!(p.len(), 64, "{v:?} repeats a pixel");
+        }
+    }
+
+    #[test]
+    fn rotated_variants_inside_match_clamped_bilinear_sampling() {
+        let src = Grid::from_vec(120, 110, (0..13200).map(|i| ((i * 7919) % 1013) as f32 * 0.37).collect());
+        for v in FEATURE_VARIANTS.iter().filter(|v| !v.is_exact()) {
+            for (cx, cy) in [(60usize, 55usize), (47, 50), (3, 3)] {
+                let got = extract_patch(&src, cx, cy, 64, *v);
+                for j in 0..64 {
+                    for i in 0..64 {
+                        let (sx, sy) = v.inverse(i as f32 - 32.0, j as f32 - 32.0);
+                        let want = src.sample_bilinear(cx as f32 + sx, cy as f32 + sy);
+                        assert_eq!(got[j * 64 + i].to_bits(), want.to_bits(), "{v:?} at ({cx},{cy}), cell ({i},{j})");
+                    }
+                }
+            }
         }
     }
 

@@ -10,7 +10,7 @@
 //! cost alone exceeds the current k-th best is skipped without changing the result.
 
 use crate::exemplar_store::Source;
-use ridgeline_terrain::costs::{angle_cost, ALPHA_A, ALPHA_F};
+use ridgeline_terrain::costs::{angle_cost_mapped, branch_mismatch, ALPHA_A, ALPHA_F};
 use ridgeline_terrain::feature_extraction::FeatureKind;
 use ridgeline_terrain::patch_geometry::{extract_patch, FEATURE_VARIANTS};
 use ridgeline_terrain::shard::{BestSet, CandidateRef, ScoredCandidate, UserPatchQuery};
@@ -75,8 +75,13 @@ fn profile_cost(data: &[f32], base: i64, offsets: &[i64], q: &[f32], (sq, sq2): 
     let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
     for (&o, &qv) in offsets.iter().zip(q) {
         let x = data[(base + o) as usize];
-        lo = lo.min(x);
-        hi = hi.max(x);
+        // candidates never carry voids (`valid_centres`), so plain comparisons do
+        if x < lo {
+            lo = x;
+        }
+        if x > hi {
+            hi = x;
+        }
         let d = (x - x0) as f64;
         s += d;
         s2 += d * d;
@@ -117,13 +122,14 @@ pub fn best_set(src: &Source, q: &UserPatchQuery, k: usize, patch: usize) -> Bes
     let mut top = TopK { k, items: Vec::with_capacity(k + 1) };
     let data = &src.heights.data;
     let q_sums: Vec<(f64, f64)> = q.profiles.iter().map(|p| profile_sums(p)).collect();
-    let mut mapped: Vec<f32> = Vec::new();
     for node in nodes {
         let base = node.y as i64 * w + node.x as i64;
+        // the branch-count mismatch alone bounds the angle cost of every variant
+        if ALPHA_A * branch_mismatch(&q.exit_angles, &node.exit_angles) > top.bound() {
+            continue;
+        }
         for (vi, v) in FEATURE_VARIANTS.iter().enumerate() {
-            mapped.clear();
-            mapped.extend(node.exit_angles.iter().map(|&a| v.map_angle(a)));
-            let ca = angle_cost(&q.exit_angles, &mapped);
+            let ca = angle_cost_mapped(&q.exit_angles, &node.exit_angles, *v);
             if ALPHA_A * ca > top.bound() {
                 continue;
             }

@@ -1,0 +1,116 @@
+//! Kernel benchmark: the two scoring kernels a worker runs, on their own, on the CPU
+//! backend (rayon over all cores): round 1 (`ShardScorer::score_block`, every user
+//! patch of a sketch against every feature candidate in its 10 variants) and fill
+//! scoring (`ShardScorer::score_fill`, windows half known against every featureless
+//! candidate in its 6 variants). Prints the median wall time, candidate-variant scores
+//! per second and the bytes the kernel reads per second (gathered heights and
+//! candidate pixels, 4 bytes each; round 1 counts every profile sample of every
+//! candidate-variant, an upper bound since pruning stops some early).
+//!
+//! `cargo bench -p ridgeline --bench kernels` (RIDGELINE_BENCH_RUNS, default 3;
+//! RIDGELINE_BENCH_SKETCH, default mixed-1024).
+
+mod common;
+
+use common::{median, runs, shared_data};
+use ridgeline::sketch::analyse;
+use ridgeline::user_patches::user_patches;
+use ridgeline_terrain::costs::noise_variances;
+use ridgeline_terrain::library::{common_cell_size, scan_library};
+use ridgeline_terrain::patch_geometry::{FEATURELESS_VARIANTS, FEATURE_VARIANTS};
+use ridgeline_terrain::shard::{FillQuery, ShardScorer};
+use ridgeline_terrain::FeatureKind;
+use ridgeline_worker::{FeatureCache, InProcessShard, ShardConfig};
+use std::time::Instant;
+
+const PATCH: usize = 64;
+const K: usize = 5;
+const BLOCK: usize = 16;
+
+fn main() {
+    let Some(data) = shared_data() else { return };
+    let sketch_name = std::env::var("RIDGELINE_BENCH_SKETCH").unwrap_or_else(|_| "mixed-1024".into());
+    let n_runs = runs(3);
+    let specs = scan_library(&data.join("dems")).expect("library");
+    let cell = common_cell_size(&specs);
+    let cache = std::env::temp_dir().join("ridgeline-kernels-bench-cache");
+    let cfg = ShardConfig { patch: PATCH, out_cell: cell, max_side: 16384, cache: Some(FeatureCache::new(&cache)) };
+    let items: Vec<_> = specs.into_iter().enumerate().map(|(i, s)| (i as u32, s)).collect();
+    let shard = InProcessShard::load(&items, &cfg);
+    let sources = shard.source_data();
+    let sketch = ridgeline_terrain::io::read_sketch(&data.join(format!("sketches/{sketch_name}.png")), 16384).expect("sketch");
+    let ups = user_patches(&analyse(&sketch, PATCH), PATCH);
+    let queries: Vec<_> = ups.iter().map(|u| u.query.clone()).collect();
+    println!(
+        "ridgeline kernel benchmark (CPU backend, {} threads): {} sources, {} user patches of {sketch_name}, median of {n_runs}",
+        rayon::current_num_threads(),
+        sources.len(),
+        queries.len()
+    );
+
+    // round 1
+    let (mut variants, mut samples) = (0u64, 0u64);
+    for q in &queries {
+        let kind = if q.kind == FeatureKind::Ridge { 0 } else { 1 };
+        let nodes: u64 = sources.iter().map(|s| s.nodes[kind].len() as u64).sum();
+        let per: u64 = q.paths.iter().map(|p| p.offsets.len() as u64).sum();
+        variants += nodes * FEATURE_VARIANTS.len() as u64;
+        samples += nodes * FEATURE_VARIANTS.len() as u64 * per;
+    }
+    let mut times = Vec::new();
+    for _ in 0..n_runs {
+        let t = Instant::now();
+        for block in queries.chunks(BLOCK) {
+            shard.score_block(block, K).expect("round 1");
+        }
+        times.push(t.elapsed().as_secs_f64());
+    }
+    let t1 = median(&mut times);
+    println!(
+        "  round 1      {t1:>8.3} s  {:>7.1} M candidate-variants/s  {:>6.2} GB/s read (≤ {:.1} GB)",
+        variants as f64 / t1 / 1e6,
+        samples as f64 * 4.0 / t1 / 1e9,
+        samples as f64 * 4.0 / 1e9
+    );
+
+    // fill scoring: windows of the sources with their left 60% known, every third cell sampled
+    let targets: Vec<FillQuery> = (0..256u32)
+        .map(|i| {
+            let s = &sources[i as usize % sources.len()];
+            let (w, h) = (s.heights.width, s.heights.height);
+            let (x0, y0) = ((i as usize * 97) % (w - PATCH), (i as usize * 61) % (h - PATCH));
+            let mut full = vec![f32::NAN; PATCH * PATCH];
+            let mut samples = Vec::new();
+            for j in 0..PATCH {
+                for x in 0..PATCH * 3 / 5 {
+                    let v = s.heights.get(x0 + x, y0 + j);
+                    full[j * PATCH + x] = v;
+                    if x % 3 == 0 && j % 3 == 0 && v.is_finite() {
+                        samples.push(((j * PATCH + x) as u32, v));
+                    }
+                }
+            }
+            let relief = ridgeline_terrain::costs::finite_std(&full).max(1.0);
+            FillQuery { id: i, samples, relief, noise: noise_variances(&full, PATCH), coherence: Vec::new(), avoid: Vec::new() }
+        })
+        .collect();
+    let featureless: u64 = sources.iter().map(|s| s.featureless.len() as u64).sum();
+    let fill_variants = featureless * FEATURELESS_VARIANTS.len() as u64 * targets.len() as u64;
+    let fill_bytes: u64 = targets.iter().map(|t| t.samples.len() as u64).sum::<u64>() * featureless * 6 * 4;
+    let mut times = Vec::new();
+    for _ in 0..n_runs {
+        let t = Instant::now();
+        for batch in targets.chunks(32) {
+            shard.score_fill(batch, 0, K).expect("fill scoring");
+        }
+        times.push(t.elapsed().as_secs_f64());
+    }
+    let tf = median(&mut times);
+    println!(
+        "  fill scoring {tf:>8.3} s  {:>7.1} M candidate-variants/s  {:>6.2} GB/s read ({} targets x {} candidates x 6)",
+        fill_variants as f64 / tf / 1e6,
+        fill_bytes as f64 / tf / 1e9,
+        targets.len(),
+        featureless
+    );
+}
