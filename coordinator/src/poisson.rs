@@ -107,10 +107,15 @@ impl PoissonProblem<'_> {
         }
         // out = A v on the box (v is zero off the unknown cells, so the stencil only
         // couples unknown neighbours; diag is zero off them, so out is too)
+        let mask: Vec<f64> = diag.iter().map(|&d| (d != 0.0) as u8 as f64).collect();
+        let inner = len - 2 * bw;
         let apply = |v: &[f64], out: &mut [f64]| {
-            for g in bw..len - bw {
-                let s = v[g - 1] + v[g + 1] + v[g - bw] + v[g + bw];
-                out[g] = if diag[g] != 0.0 { diag[g] * v[g] - s } else { 0.0 };
+            let (left, right) = (&v[bw - 1..bw - 1 + inner], &v[bw + 1..bw + 1 + inner]);
+            let (up, down, mid) = (&v[..inner], &v[2 * bw..2 * bw + inner], &v[bw..bw + inner]);
+            let (d, m) = (&diag[bw..bw + inner], &mask[bw..bw + inner]);
+            let out = &mut out[bw..bw + inner];
+            for k in 0..inner {
+                out[k] = m[k] * (d[k] * mid[k] - (left[k] + right[k] + up[k] + down[k]));
             }
         };
         let dot = |a: &[f64], b: &[f64]| {

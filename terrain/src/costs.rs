@@ -154,15 +154,19 @@ pub const NOISE_LEVELS: usize = 3;
 /// comparison is scale-free. `None` where a level has fewer than 16 samples.
 pub fn noise_variances(p: &[f32], size: usize) -> Option<[f32; NOISE_LEVELS]> {
     let mut out = [0f32; NOISE_LEVELS];
+    let mut res = vec![0f32; size];
     for (l, o) in out.iter_mut().enumerate() {
         let s = 1usize << l;
         let mut n = 0usize;
         let mut acc = 0.0f64;
         for y in s..size.saturating_sub(s) {
+            // residuals of the row first (vectorised), then the sum in row order
+            let (row, up, down) = (&p[y * size..(y + 1) * size], &p[(y - s) * size..], &p[(y + s) * size..]);
             for x in s..size - s {
-                let c = p[y * size + x];
-                let nb = p[y * size + x - s] + p[y * size + x + s] + p[(y - s) * size + x] + p[(y + s) * size + x];
-                let r = c - nb * 0.25;
+                let nb = row[x - s] + row[x + s] + up[x] + down[x];
+                res[x] = row[x] - nb * 0.25;
+            }
+            for &r in &res[s..size - s] {
                 if r.is_finite() {
                     acc += (r as f64) * (r as f64);
                     n += 1;

@@ -9,8 +9,8 @@
 //! `ALPHA_O * overlap / relief + ALPHA_N * noise − BETA_C * coherence + repetition +
 //! seed jitter`, where the overlap is the RMS height difference with its mean removed
 //! (the gradient-domain merge hides a constant offset) over the sampled known cells,
-//! summed in f64 in sample order, so the value does not depend on the thread count or
-//! on which worker holds the shard.
+//! summed in f64 in a fixed order ([`moments`]), so the value does not depend on the
+//! thread count or on which worker holds the shard.
 
 use crate::exemplar_store::Source;
 use rayon::prelude::*;
@@ -35,12 +35,7 @@ pub fn best_fill_set(sources: &[Source], maps: &[Vec<u32>], q: &FillQuery, seed:
                 let rep = repeats(patch, &q.avoid, s.id, c.x, c.y);
                 let cn = q.noise.map(|u| noise_cost(&u, &c.noise)).unwrap_or(0.0);
                 mapped.iter().enumerate().map(move |(vi, idx)| {
-                    let (mut sum, mut sum2) = (0f64, 0f64);
-                    for (&m, &v) in idx.iter().zip(values) {
-                        let d = (c.pixels[m as usize] - v) as f64;
-                        sum += d;
-                        sum2 += d * d;
-                    }
+                    let (sum, sum2) = moments(&c.pixels, idx, values);
                     let n = q.samples.len().max(1) as f64;
                     let co = ((sum2 / n - (sum / n) * (sum / n)).max(0.0)).sqrt() as f32 / q.relief;
                     let j = SEED_JITTER * jitter(seed, &[s.id as u64, c.x as u64, c.y as u64, vi as u64, 7]);
@@ -73,6 +68,28 @@ pub fn best_fill_set(sources: &[Source], maps: &[Vec<u32>], q: &FillQuery, seed:
         })
         .collect();
     FillBestSet { target: q.id, entries }
+}
+
+/// Σd and Σd² of the differences d = pixels[idx[i]] − values[i], in f64, in four
+/// interleaved partial sums (sample i goes to sum i mod 4) added in a fixed order:
+/// four independent chains instead of one, and the same value on every machine.
+fn moments(pixels: &[f32], idx: &[u32], values: &[f32]) -> (f64, f64) {
+    let (mut s, mut s2) = ([0f64; 4], [0f64; 4]);
+    let (ci, cv) = (idx.chunks_exact(4), values.chunks_exact(4));
+    let (ri, rv) = (ci.remainder(), cv.remainder());
+    for (i4, v4) in ci.zip(cv) {
+        for l in 0..4 {
+            let d = (pixels[i4[l] as usize] - v4[l]) as f64;
+            s[l] += d;
+            s2[l] += d * d;
+        }
+    }
+    for (l, (&i, &v)) in ri.iter().zip(rv).enumerate() {
+        let d = (pixels[i as usize] - v) as f64;
+        s[l] += d;
+        s2[l] += d * d;
+    }
+    ((s[0] + s[1]) + (s[2] + s[3]), (s2[0] + s2[1]) + (s2[2] + s2[3]))
 }
 
 /// Checks a batch of fill targets before scoring: sample indices inside the patch,
