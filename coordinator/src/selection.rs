@@ -38,7 +38,6 @@ pub fn select_and_merge(canvas: &mut Canvas, cx: usize, cy: usize, cands: &[Scor
     }
     let p = canvas.patch;
     let t = Target::at(canvas, cx, cy);
-    let mask: Vec<bool> = t.full_old.iter().map(|v| !v.is_nan()).collect();
     let cand_std: Vec<f32> = cands.iter().map(|c| finite_std(&c.pixels)).collect();
     let mut cand_relief = cand_std.clone();
     cand_relief.sort_by(f32::total_cmp);
@@ -49,10 +48,11 @@ pub fn select_and_merge(canvas: &mut Canvas, cx: usize, cy: usize, cands: &[Scor
         .par_iter()
         .enumerate()
         .map(|(i, c)| {
-            let (co, _, _) = overlap_cost(&t.full_old, &c.pixels, &mask, 1);
-            let cn = match (t.noise, noise_variances(&c.pixels, p)) {
-                (Some(u), Some(v)) => noise_cost(&u, &v),
-                _ => 0.0,
+            let (co, _, _) = overlap_cost(&t.full_old, &c.pixels);
+            // the candidate's noise only matters when the window's is known
+            let cn = match t.noise.and_then(|u| Some((u, noise_variances(&c.pixels, p)?))) {
+                Some((u, v)) => noise_cost(&u, &v),
+                None => 0.0,
             };
             let rep = if repeats(p, &avoid, c.cand.source, c.cand.x, c.cand.y) { REPEAT_PENALTY } else { 0.0 };
             let j =

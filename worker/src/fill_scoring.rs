@@ -9,12 +9,12 @@
 //! `ALPHA_O * overlap / relief + ALPHA_N * noise − BETA_C * coherence + repetition +
 //! seed jitter`, where the overlap is the RMS height difference with its mean removed
 //! (the gradient-domain merge hides a constant offset) over the sampled known cells,
-//! summed in f64 in a fixed order ([`moments`]), so the value does not depend on the
+//! summed in f64 in a fixed order (`costs::LaneSums`), so the value does not depend on the
 //! thread count or on which worker holds the shard.
 
 use crate::exemplar_store::Source;
 use rayon::prelude::*;
-use ridgeline_terrain::costs::{jitter, noise_cost, repeats, ALPHA_N, ALPHA_O, BETA_C, REPEAT_PENALTY, SEED_JITTER};
+use ridgeline_terrain::costs::{jitter, noise_cost, repeats, LaneSums, ALPHA_N, ALPHA_O, BETA_C, REPEAT_PENALTY, SEED_JITTER};
 use ridgeline_terrain::shard::{FillBestSet, FillCandidate, FillQuery};
 
 /// Scores one target against the featureless candidates of `sources` (variant maps
@@ -70,26 +70,20 @@ pub fn best_fill_set(sources: &[Source], maps: &[Vec<u32>], q: &FillQuery, seed:
     FillBestSet { target: q.id, entries }
 }
 
-/// Σd and Σd² of the differences d = pixels[idx[i]] − values[i], in f64, in four
-/// interleaved partial sums (sample i goes to sum i mod 4) added in a fixed order:
-/// four independent chains instead of one, and the same value on every machine.
+/// Σd and Σd² of the differences d = pixels[idx[i]] − values[i] (`LaneSums` order).
 fn moments(pixels: &[f32], idx: &[u32], values: &[f32]) -> (f64, f64) {
-    let (mut s, mut s2) = ([0f64; 4], [0f64; 4]);
+    let mut acc = LaneSums::default();
     let (ci, cv) = (idx.chunks_exact(4), values.chunks_exact(4));
     let (ri, rv) = (ci.remainder(), cv.remainder());
     for (i4, v4) in ci.zip(cv) {
         for l in 0..4 {
-            let d = (pixels[i4[l] as usize] - v4[l]) as f64;
-            s[l] += d;
-            s2[l] += d * d;
+            acc.add(l, (pixels[i4[l] as usize] - v4[l]) as f64);
         }
     }
     for (l, (&i, &v)) in ri.iter().zip(rv).enumerate() {
-        let d = (pixels[i as usize] - v) as f64;
-        s[l] += d;
-        s2[l] += d * d;
+        acc.add(l, (pixels[i as usize] - v) as f64);
     }
-    ((s[0] + s[1]) + (s[2] + s[3]), (s2[0] + s2[1]) + (s2[2] + s2[3]))
+    acc.total()
 }
 
 /// Checks a batch of fill targets before scoring: sample indices inside the patch,
