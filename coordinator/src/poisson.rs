@@ -60,9 +60,11 @@ impl PoissonProblem<'_> {
     /// The vectors live on the bounding box of the unknown cells, padded by a zero
     /// column and a zero row on each side, and are zero on every cell that is not
     /// unknown: the operator is then the plain five-point stencil with fixed offsets
-    /// (no neighbour lists, no branches), which the compiler vectorises. Dot products
-    /// are summed in four interleaved partial sums in a fixed order, so the result
-    /// depends only on the problem, never on the thread that solves it.
+    /// (no neighbour lists, no branches), which the compiler vectorises. Mixed
+    /// precision: the initial residual and the solution are f64, the CG vectors f32
+    /// (they carry the correction, centimetres to metres, not the heights). Dot
+    /// products are summed in eight interleaved partial sums in a fixed order, so the
+    /// result depends only on the problem, never on the thread that solves it.
     pub fn solve(&self, x: &mut [f32], tol: f64, max_iter: usize) -> SolveStats {
         let w = self.w;
         let (mut x0, mut y0, mut x1, mut y1) = (usize::MAX, usize::MAX, 0, 0);
@@ -105,45 +107,53 @@ impl PoissonProblem<'_> {
                 xv[g] = x[i] as f64;
             }
         }
-        // out = A v on the box (v is zero off the unknown cells, so the stencil only
-        // couples unknown neighbours; diag is zero off them, so out is too)
-        let mask: Vec<f64> = diag.iter().map(|&d| (d != 0.0) as u8 as f64).collect();
+        // The initial residual in f64 (it cancels heights of thousands of metres); then
+        // CG for the correction in f32, whose values are small, accumulated into x in
+        // f64. Off the unknown cells every vector is zero.
+        let mut r0 = vec![0f64; len];
+        for g in bw..len - bw {
+            if diag[g] != 0.0 {
+                r0[g] = b[g] - (diag[g] * xv[g] - (xv[g - 1] + xv[g + 1] + xv[g - bw] + xv[g + bw]));
+            }
+        }
+        let bnorm = b.iter().map(|v| v * v).sum::<f64>().sqrt().max(1e-12);
+        let d32: Vec<f32> = diag.iter().map(|&d| d as f32).collect();
+        let inv32: Vec<f32> = inv_diag.iter().map(|&d| d as f32).collect();
+        let mask: Vec<f32> = diag.iter().map(|&d| (d != 0.0) as u8 as f32).collect();
         let inner = len - 2 * bw;
-        let apply = |v: &[f64], out: &mut [f64]| {
+        // out = A v: the stencil only couples unknown neighbours (v is zero elsewhere)
+        // and the mask keeps out zero off the unknown cells
+        let apply = |v: &[f32], out: &mut [f32]| {
             let (left, right) = (&v[bw - 1..bw - 1 + inner], &v[bw + 1..bw + 1 + inner]);
             let (up, down, mid) = (&v[..inner], &v[2 * bw..2 * bw + inner], &v[bw..bw + inner]);
-            let (d, m) = (&diag[bw..bw + inner], &mask[bw..bw + inner]);
+            let (d, m) = (&d32[bw..bw + inner], &mask[bw..bw + inner]);
             let out = &mut out[bw..bw + inner];
             for k in 0..inner {
                 out[k] = m[k] * (d[k] * mid[k] - (left[k] + right[k] + up[k] + down[k]));
             }
         };
-        let dot = |a: &[f64], b: &[f64]| {
-            let mut acc = [0f64; 4];
-            let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
+        // f32 dot products in eight fixed partial sums, totalled in f64
+        let dot = |a: &[f32], b: &[f32]| -> f64 {
+            let mut acc = [0f32; 8];
+            let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
             let (ra, rb) = (ca.remainder(), cb.remainder());
             for (p, q) in ca.zip(cb) {
-                for l in 0..4 {
+                for l in 0..8 {
                     acc[l] += p[l] * q[l];
                 }
             }
             for (l, (p, q)) in ra.iter().zip(rb).enumerate() {
                 acc[l] += p * q;
             }
-            (acc[0] + acc[1]) + (acc[2] + acc[3])
+            acc.iter().map(|&v| v as f64).sum()
         };
-        let mut r = vec![0f64; len];
-        apply(&xv, &mut r);
-        for g in 0..len {
-            r[g] = b[g] - r[g];
-        }
-        let mut z: Vec<f64> = r.iter().zip(&inv_diag).map(|(a, d)| a * d).collect();
-        let bnorm = dot(&b, &b).sqrt().max(1e-12);
+        let mut r: Vec<f32> = r0.iter().map(|&v| v as f32).collect();
+        let mut z: Vec<f32> = r.iter().zip(&inv32).map(|(a, d)| a * d).collect();
         let mut p = z.clone();
         let mut rz = dot(&r, &z);
-        let mut ap = vec![0f64; len];
+        let mut ap = vec![0f32; len];
         let mut it = 0;
-        let mut rel = dot(&r, &r).sqrt() / bnorm;
+        let mut rel = r0.iter().map(|v| v * v).sum::<f64>().sqrt() / bnorm;
         while it < max_iter && rel > tol {
             apply(&p, &mut ap);
             let pap = dot(&p, &ap);
@@ -151,20 +161,21 @@ impl PoissonProblem<'_> {
                 break;
             }
             let alpha = rz / pap;
+            let a32 = alpha as f32;
             for ((xg, rg), (pg, apg)) in xv.iter_mut().zip(r.iter_mut()).zip(p.iter().zip(&ap)) {
-                *xg += alpha * pg;
-                *rg -= alpha * apg;
+                *xg += alpha * *pg as f64;
+                *rg -= a32 * apg;
             }
             rel = dot(&r, &r).sqrt() / bnorm;
             it += 1;
             if !(it < max_iter && rel > tol) {
                 break;
             }
-            for ((zg, rg), dg) in z.iter_mut().zip(&r).zip(&inv_diag) {
+            for ((zg, rg), dg) in z.iter_mut().zip(&r).zip(&inv32) {
                 *zg = rg * dg;
             }
             let rz_new = dot(&r, &z);
-            let beta = rz_new / rz;
+            let beta = (rz_new / rz) as f32;
             rz = rz_new;
             for (pg, zg) in p.iter_mut().zip(&z) {
                 *pg = zg + beta * *pg;
