@@ -10,9 +10,9 @@
 //! cost alone exceeds the current k-th best is skipped without changing the result.
 
 use crate::exemplar_store::Source;
-use ridgeline_terrain::costs::{angle_cost_mapped, branch_mismatch, ALPHA_A, ALPHA_F};
+use ridgeline_terrain::costs::{angle_cost_mapped, branch_mismatch, profile_rms, ALPHA_A, ALPHA_F};
 use ridgeline_terrain::feature_extraction::FeatureKind;
-use ridgeline_terrain::patch_geometry::{extract_patch, FEATURE_VARIANTS};
+use ridgeline_terrain::patch_geometry::{extract_patch, normalise_profile, FEATURE_VARIANTS};
 use ridgeline_terrain::shard::{BestSet, CandidateRef, ScoredCandidate, UserPatchQuery};
 
 /// A candidate under consideration, before its pixels are extracted.
@@ -51,6 +51,12 @@ impl TopK {
         self.items.truncate(self.k);
     }
 }
+
+/// Candidates kept beyond k by the one-pass cost and re-scored in the reference
+/// form ([`normalise_profile`] then [`profile_rms`]) before the k best are taken: the
+/// two forms differ in the last bits, so near-ties at the k-th place could otherwise
+/// swap; with a margin the best-set is the reference form's.
+const RESCORE_MARGIN: usize = 2;
 
 /// Σq and Σq² of a user profile.
 fn profile_sums(q: &[f32]) -> (f64, f64) {
@@ -119,7 +125,7 @@ pub fn best_set(src: &Source, q: &UserPatchQuery, k: usize, patch: usize) -> Bes
                 .collect()
         })
         .collect();
-    let mut top = TopK { k, items: Vec::with_capacity(k + 1) };
+    let mut top = TopK { k: k + RESCORE_MARGIN, items: Vec::with_capacity(k + RESCORE_MARGIN + 1) };
     let data = &src.heights.data;
     let q_sums: Vec<(f64, f64)> = q.profiles.iter().map(|p| profile_sums(p)).collect();
     for node in nodes {
@@ -157,8 +163,28 @@ pub fn best_set(src: &Source, q: &UserPatchQuery, k: usize, patch: usize) -> Bes
             });
         }
     }
-    let entries = top
+    // the reference form for the kept: the same costs, bit for bit, as normalising
+    // each profile and taking its RMS difference
+    let mut kept: Vec<Hit> = top
         .items
+        .into_iter()
+        .map(|mut h| {
+            let vi = FEATURE_VARIANTS.iter().position(|v| *v == h.cand.variant).unwrap_or(0);
+            let base = h.cand.y as i64 * w + h.cand.x as i64;
+            let mut sum = 0.0f32;
+            for (pi, path_off) in offsets[vi].iter().enumerate() {
+                let mut buf: Vec<f32> = path_off.iter().map(|&o| data[(base + o) as usize]).collect();
+                normalise_profile(&mut buf, src.min_range);
+                sum += profile_rms(&buf, &q.profiles[pi]);
+            }
+            h.feature = sum / q.paths.len().max(1) as f32;
+            h.cost = ALPHA_F * h.feature + ALPHA_A * h.angle;
+            h
+        })
+        .collect();
+    kept.sort_by(hit_order);
+    kept.truncate(k);
+    let entries = kept
         .into_iter()
         .map(|h| ScoredCandidate {
             cand: h.cand,
@@ -174,8 +200,89 @@ pub fn best_set(src: &Source, q: &UserPatchQuery, k: usize, patch: usize) -> Bes
 #[cfg(test)]
 mod tests {
     use super::*;
-    use ridgeline_terrain::costs::profile_rms;
-    use ridgeline_terrain::patch_geometry::normalise_profile;
+
+    /// Every node in every variant scored in the reference form, sorted, the k first.
+    fn brute_force(src: &Source, q: &UserPatchQuery, k: usize) -> Vec<(CandidateRef, u32)> {
+        let w = src.heights.width as f32;
+        let mut all: Vec<Hit> = Vec::new();
+        for node in &src.nodes[0] {
+            for v in FEATURE_VARIANTS {
+                let mapped: Vec<f32> = node.exit_angles.iter().map(|&a| v.map_angle(a)).collect();
+                let ca = ridgeline_terrain::costs::angle_cost(&q.exit_angles, &mapped);
+                let mut sum = 0.0f32;
+                for (pi, path) in q.paths.iter().enumerate() {
+                    let mut buf: Vec<f32> = path
+                        .offsets
+                        .iter()
+                        .map(|o| {
+                            let (sx, sy) = v.inverse(o[0], o[1]);
+                            let i = (node.y as f32 + sy.round()) * w + node.x as f32 + sx.round();
+                            src.heights.data[i as usize]
+                        })
+                        .collect();
+                    normalise_profile(&mut buf, src.min_range);
+                    sum += profile_rms(&buf, &q.profiles[pi]);
+                }
+                let cf = sum / q.paths.len() as f32;
+                let cand = CandidateRef { source: src.id, y: node.y, x: node.x, variant: v };
+                all.push(Hit { cost: ALPHA_F * cf + ALPHA_A * ca, feature: cf, angle: ca, cand });
+            }
+        }
+        all.sort_by(hit_order);
+        all.into_iter().take(k).map(|h| (h.cand, h.cost.to_bits())).collect()
+    }
+
+    #[test]
+    fn pruned_search_returns_the_brute_force_best_set() {
+        use crate::candidates::FeatureNode;
+        use ridgeline_terrain::grid::Grid;
+        use ridgeline_terrain::patch_geometry::ProfilePath;
+        let (w, h) = (160usize, 140usize);
+        let heights = Grid::from_vec(
+            w,
+            h,
+            (0..w * h)
+                .map(|i| {
+                    let (x, y) = ((i % w) as f32, (i / w) as f32);
+                    2000.0 + 300.0 * (x / 9.0).sin() * (y / 13.0).cos() + ((i * 7919) % 97) as f32
+                })
+                .collect(),
+        );
+        let nodes: Vec<FeatureNode> = (0..60u32)
+            .map(|i| FeatureNode {
+                x: 40 + (i * 37) % 80,
+                y: 40 + (i * 53) % 60,
+                exit_angles: if i % 4 == 0 { vec![0.3, 2.0, -1.9] } else { vec![0.1 * i as f32, 0.1 * i as f32 + 3.0] },
+            })
+            .collect();
+        let src = Source {
+            id: 3,
+            name: "synthetic".into(),
+            heights,
+            nodes: [nodes, Vec::new()],
+            featureless: Vec::new(),
+            min_range: 1.0,
+            cache_hit: false,
+        };
+        let paths: Vec<ProfilePath> = (0..3)
+            .map(|p| ProfilePath {
+                offsets: (-8..=8).map(|t| [t as f32 * 1.7 + p as f32 * 3.0, t as f32 * 0.6 - p as f32 * 5.0]).collect(),
+            })
+            .collect();
+        let profiles: Vec<Vec<f32>> = (0..3)
+            .map(|p| {
+                let mut v: Vec<f32> = (0..17).map(|t| (-((t as f32 - 8.0) / (3.0 + p as f32)).powi(2)).exp()).collect();
+                normalise_profile(&mut v, 0.05);
+                v
+            })
+            .collect();
+        let q = UserPatchQuery { id: 0, kind: FeatureKind::Ridge, exit_angles: vec![0.5, 3.5], paths, profiles };
+        for k in [1, 5, 12] {
+            let got: Vec<(CandidateRef, u32)> =
+                best_set(&src, &q, k, 16).entries.iter().map(|e| (e.cand, e.cost.to_bits())).collect();
+            assert_eq!(got, brute_force(&src, &q, k), "k = {k}");
+        }
+    }
 
     #[test]
     fn one_pass_profile_cost_equals_normalise_then_rms() {
