@@ -83,7 +83,6 @@ impl PoissonProblem<'_> {
         let lambda = self.lambda as f64;
         let mut b = vec![0f64; len];
         let mut diag = vec![0f64; len];
-        let mut inv_diag = vec![0f64; len];
         let mut xv = vec![0f64; len];
         for cy in y0..=y1 {
             for cx in x0..=x1 {
@@ -102,7 +101,6 @@ impl PoissonProblem<'_> {
                     }
                 });
                 diag[g] = d;
-                inv_diag[g] = 1.0 / d;
                 b[g] = rhs;
                 xv[g] = x[i] as f64;
             }
@@ -118,7 +116,7 @@ impl PoissonProblem<'_> {
         }
         let bnorm = b.iter().map(|v| v * v).sum::<f64>().sqrt().max(1e-12);
         let d32: Vec<f32> = diag.iter().map(|&d| d as f32).collect();
-        let inv32: Vec<f32> = inv_diag.iter().map(|&d| d as f32).collect();
+        let inv32: Vec<f32> = diag.iter().map(|&d| if d != 0.0 { (1.0 / d) as f32 } else { 0.0 }).collect();
         let mask: Vec<f32> = diag.iter().map(|&d| (d != 0.0) as u8 as f32).collect();
         let inner = len - 2 * bw;
         // out = A v: the stencil only couples unknown neighbours (v is zero elsewhere)

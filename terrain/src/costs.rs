@@ -112,8 +112,8 @@ fn angle_cost_by(user: &[f32], cand: &[f32], map: impl Fn(f32) -> f32) -> f32 {
     s / user.len() as f32 + mismatch
 }
 
-/// Overlap cost over the cells where the output `out` is known (not NaN): RMS of the height difference
-/// after removing its mean. The gradient-domain merge absorbs a constant offset, so
+/// Overlap cost over the cells where the output `out` is known (not NaN): RMS of the
+/// height difference after removing its mean. The gradient-domain merge absorbs a constant offset, so
 /// this measures what the merge cannot hide (design.md, pitfalls). Returns
 /// `(cost, mean offset, count)`.
 pub fn overlap_cost(out: &[f32], cand: &[f32]) -> (f32, f32, usize) {

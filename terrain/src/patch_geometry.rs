@@ -258,15 +258,14 @@ pub fn extract_patch(src: &Grid<f32>, cx: usize, cy: usize, size: usize, v: Vari
     if v.is_exact() {
         // an exact variant maps the patch's corners to source cells; when all four
         // lie inside, each output row is a walk with a constant index step
-        let h = (size / 2) as i64;
+        let (h, e) = ((size / 2) as i64, size as i64 - 1 - (size / 2) as i64);
         let at = |ox: i64, oy: i64| {
             let (sx, sy) = v.inverse(ox as f32, oy as f32);
             (cx as i64 + sx as i64, cy as i64 + sy as i64)
         };
-        let corners = [at(-h, -h), at(size as i64 - 1 - h, -h), at(-h, size as i64 - 1 - h)];
-        let inside = |(x, y): (i64, i64)| x >= 0 && y >= 0 && (x as usize) < src.width && (y as usize) < src.height;
-        let far = at(size as i64 - 1 - h, size as i64 - 1 - h);
-        if corners.iter().all(|&c| inside(c)) && inside(far) {
+        let corners = [at(-h, -h), at(e, -h), at(-h, e), at(e, e)];
+        let inside = |&(x, y): &(i64, i64)| x >= 0 && y >= 0 && (x as usize) < src.width && (y as usize) < src.height;
+        if corners.iter().all(inside) {
             let wd = src.width as i64;
             let flat = |(x, y): (i64, i64)| y * wd + x;
             let (start, next_i, next_j) = (flat(corners[0]), flat(at(1 - h, -h)), flat(at(-h, 1 - h)));

@@ -9,7 +9,7 @@ pub mod exemplar_store;
 pub mod feature_cache;
 pub mod fill_scoring;
 pub mod grpc_service;
-mod patch_matching;
+pub mod patch_matching;
 
 pub use exemplar_store::{load_source, ShardConfig, Source};
 pub use feature_cache::FeatureCache;
@@ -123,18 +123,15 @@ impl ShardScorer for InProcessShard {
         // source while its heights are in the core's cache; returned in (user patch,
         // source) order
         let pairs: Vec<(usize, usize)> = (0..self.sources.len()).flat_map(|s| (0..block.len()).map(move |b| (s, b))).collect();
-        let mut sets: Vec<BestSet> = pairs
+        let mut sets: Vec<Option<BestSet>> = pairs
             .par_iter()
             .map(|&(s, b)| {
                 let _span = tracing::trace_span!("best_set", user_patch = block[b].id, source = self.sources[s].id).entered();
-                patch_matching::best_set(&self.sources[s], &block[b], k, self.patch)
+                Some(patch_matching::best_set(&self.sources[s], &block[b], k, self.patch))
             })
             .collect();
-        let n = block.len();
-        let mut order: Vec<usize> = (0..sets.len()).collect();
-        order.sort_by_key(|&i| (i % n, i / n));
-        let mut slots: Vec<Option<BestSet>> = sets.drain(..).map(Some).collect();
-        Ok(order.into_iter().filter_map(|i| slots[i].take()).collect())
+        let (n, ns) = (block.len(), self.sources.len());
+        Ok((0..n).flat_map(|b| (0..ns).map(move |s| s * n + b)).filter_map(|i| sets[i].take()).collect())
     }
 
     fn score_fill(&self, targets: &[FillQuery], seed: u64, k: usize) -> Result<Vec<FillBestSet>, ShardError> {
