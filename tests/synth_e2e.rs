@@ -154,37 +154,99 @@ fn batched_round_two_gives_the_sequential_result() {
 }
 
 /// Mean absolute second difference across column `c` (between c-1, c, c+1) or row.
-fn curvature_across(h: &ridgeline_terrain::Heightfield, c: usize, columns: bool) -> f64 {
-    let n = if columns { h.height } else { h.width };
+/// Mean |second difference across line `c`| (a row, or a column when `columns`) over
+/// cells `from..to` along it.
+fn curvature_across(h: &ridgeline_terrain::Heightfield, c: usize, columns: bool, from: usize, to: usize) -> f64 {
     let at = |i: usize, k: usize| if columns { h.get(k, i) } else { h.get(i, k) } as f64;
-    (0..n).map(|i| (at(i, c + 1) - 2.0 * at(i, c) + at(i, c - 1)).abs()).sum::<f64>() / n as f64
+    (from..to).map(|i| (at(i, c + 1) - 2.0 * at(i, c) + at(i, c - 1)).abs()).sum::<f64>() / (to - from) as f64
 }
 
+/// Draws a polyline of `width` pixels in `value` on a sketch.
+fn stroke(img: &mut image::GrayImage, pts: &[(f32, f32)], width: f32, value: u8) {
+    for seg in pts.windows(2) {
+        let ((x0, y0), (x1, y1)) = (seg[0], seg[1]);
+        let n = ((x1 - x0).hypot(y1 - y0).ceil() as usize).max(1);
+        for s in 0..=n {
+            let t = s as f32 / n as f32;
+            let (cx, cy) = (x0 + t * (x1 - x0), y0 + t * (y1 - y0));
+            let r = width / 2.0;
+            for y in (cy - r).floor() as i64..=(cy + r).ceil() as i64 {
+                for x in (cx - r).floor() as i64..=(cx + r).ceil() as i64 {
+                    let inside = x >= 0 && y >= 0 && (x as u32) < img.width() && (y as u32) < img.height();
+                    if inside && (x as f32 - cx).hypot(y as f32 - cy) <= r {
+                        img.put_pixel(x as u32, y as u32, image::Luma([value]));
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Straight seams along the lines where hole filling's tiles meet: a tile's edge, and
+/// its fills' reach (the edge ± half a patch), where a front from a tile of an earlier
+/// colour stops. For each such row and column, the worst tile-long stretch of mean
+/// |second difference across it| against the median stretch of all rows and columns
+/// (real DEMs score 1.7 to 4 on their worst line of all, ridge crests included). A
+/// level step where two fronts meet scores far above it: with fills levelled by
+/// their mean offset alone (before `base_surface`) the stroked sketch scored 9.4 and
+/// the blank one 5.9; now 6.0 and 4.0.
 #[test]
-fn no_seam_along_hole_filling_tile_boundaries() {
+fn no_straight_seam_where_hole_filling_tiles_meet() {
     let Some(data) = shared_data() else { return };
     let dir = temp_dir("tiles");
-    // no strokes: the whole terrain comes from hole filling, across many tiles
-    let sketch = image::GrayImage::from_pixel(640, 384, image::Luma([128u8]));
-    let sketch_path = dir.join("blank.png");
-    sketch.save(&sketch_path).unwrap();
     let patch = 32;
-    let cfg = SynthConfig { patch, threads: 2, cache_dir: Some(dir.join("cache")), ..Default::default() };
-    let out = run_job(&sketch_path, &data.join("dems"), &cfg).expect("synthesis");
-    let h = out.terrain();
-    assert!(h.data.iter().all(|v| v.is_finite()));
-    let side = ridgeline::hole_filling::tile_side(h.width, h.height, patch);
-    for columns in [true, false] {
-        let len = if columns { h.width } else { h.height };
-        let all: Vec<f64> = (2..len - 2).map(|c| curvature_across(h, c, columns)).collect();
-        let interior = all.iter().sum::<f64>() / all.len() as f64;
-        let boundary: Vec<f64> =
-            (1..len / side).flat_map(|b| [b * side - 1, b * side]).map(|c| curvature_across(h, c, columns)).collect();
-        let at_boundary = boundary.iter().sum::<f64>() / boundary.len() as f64;
+    // no strokes: the whole terrain comes from hole filling, across many tiles; and
+    // strokes far apart, so fronts levelled from separate ridges and valleys meet
+    let blank = image::GrayImage::from_pixel(640, 384, image::Luma([128u8]));
+    let mut stroked = image::GrayImage::from_pixel(768, 512, image::Luma([128u8]));
+    stroke(&mut stroked, &[(60.0, 90.0), (300.0, 70.0), (420.0, 140.0), (700.0, 110.0)], 3.0, 255);
+    stroke(&mut stroked, &[(90.0, 430.0), (380.0, 400.0), (690.0, 450.0)], 3.0, 0);
+    stroke(&mut stroked, &[(560.0, 250.0), (640.0, 330.0)], 2.0, 255);
+    let mut scores = Vec::new();
+    for (name, sketch) in [("blank", blank), ("stroked", stroked)] {
+        let sketch_path = dir.join(format!("{name}.png"));
+        sketch.save(&sketch_path).unwrap();
+        let cfg = SynthConfig { patch, threads: 2, cache_dir: Some(dir.join("cache")), ..Default::default() };
+        let out = run_job(&sketch_path, &data.join("dems"), &cfg).expect("synthesis");
+        let h = out.terrain();
+        assert!(h.data.iter().all(|v| v.is_finite()));
+        let side = ridgeline::hole_filling::tile_side(h.width, h.height, patch);
+        let stretches = |c: usize, columns: bool| -> Vec<f64> {
+            let len = if columns { h.height } else { h.width };
+            (0..len / side).map(|s| curvature_across(h, c, columns, s * side, (s + 1) * side)).collect()
+        };
+        let mut all = Vec::new();
+        let mut worst = (0.0f64, 0usize, false);
+        for columns in [true, false] {
+            let len = if columns { h.width } else { h.height };
+            for c in 1..len - 1 {
+                all.extend(stretches(c, columns));
+            }
+            for b in 1..len.div_ceil(side) {
+                let edge = (b * side) as i64;
+                let half = (patch / 2) as i64;
+                for c in [edge - half - 1, edge - half, edge - 1, edge, edge + half - 1, edge + half] {
+                    if c >= 1 && c < len as i64 - 1 {
+                        let m = stretches(c as usize, columns).into_iter().fold(0.0, f64::max);
+                        if m > worst.0 {
+                            worst = (m, c as usize, columns);
+                        }
+                    }
+                }
+            }
+        }
+        all.sort_by(f64::total_cmp);
+        let median = all[all.len() / 2];
+        let score = worst.0 / median;
         eprintln!(
-            "{}: mean |second difference| {at_boundary:.3} m at tile boundaries, {interior:.3} m overall",
-            if columns { "columns" } else { "rows" }
+            "{name}: worst tile line {} {} scores {score:.2} (mean |second difference| {:.2} m, median {median:.2} m)",
+            if worst.2 { "column" } else { "row" },
+            worst.1,
+            worst.0
         );
-        assert!(at_boundary <= 1.5 * interior, "tile boundaries show: {at_boundary} vs {interior}");
+        scores.push((name, score));
+    }
+    for (name, score) in scores {
+        assert!(score <= 7.5, "{name}: a straight seam where hole-filling tiles meet: {score:.2}");
     }
 }

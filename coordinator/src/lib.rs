@@ -1,6 +1,7 @@
 //! ridgeline coordinator: a job from the sketch to the output file. Start at
 //! [`pipeline`]; each stage is a module named after it.
 
+pub mod base_surface;
 pub mod canvas;
 pub mod cluster;
 pub mod debug_outputs;
