@@ -8,6 +8,9 @@
 //! - `provenance.json`: every placed patch (exemplar, source position, variant,
 //!   output centre).
 
+/// The files `--debug-dir` holds after a job.
+pub const DEBUG_FILES: [&str; 4] = ["sketch_features.png", "features_only.png", "provenance.png", "provenance.json"];
+
 use crate::pipeline::SynthOutput;
 use font8x8::UnicodeFonts;
 use image::{Rgb, RgbImage};

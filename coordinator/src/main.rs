@@ -171,9 +171,15 @@ fn main() -> std::process::ExitCode {
     let default_level = if interactive { "warn" } else { "info" };
     let filter = tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| default_level.into());
     match cli.log_format {
-        LogFormat::Text => tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).init(),
+        // colour codes only on a terminal, never into a log file or pipe
+        LogFormat::Text => tracing_subscriber::fmt()
+            .with_ansi(std::io::stderr().is_terminal())
+            .with_env_filter(filter)
+            .with_writer(std::io::stderr)
+            .init(),
         LogFormat::Json => tracing_subscriber::fmt()
             .json()
+            .with_ansi(false)
             .with_current_span(true)
             .with_span_list(true)
             .with_env_filter(filter)
@@ -296,6 +302,84 @@ fn worker_urls(a: &SynthArgs) -> Result<Vec<String>> {
     Ok(urls)
 }
 
+/// Most files `--tiles` may write (tiles and their sidecars).
+const MAX_TILE_FILES: usize = 10_000;
+
+/// A path as it will be opened: the canonical form of its folder (which exists,
+/// `check_out` saw to it) and its name, so `a/../b.tif` and `b.tif` compare equal.
+fn resolved(p: &Path) -> PathBuf {
+    let dir = p.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let dir = dir.canonicalize().unwrap_or_else(|_| dir.to_path_buf());
+    match p.file_name() {
+        Some(name) => dir.join(name),
+        None => dir,
+    }
+}
+
+/// Refuses, before any work, a job whose outputs would overwrite one of its inputs
+/// or each other (`--out` equal to `--sketch`, `--preview` equal to `--out`, a
+/// `--report` on the PNG's sidecar, tiles over the terrain, …), or that would write
+/// more tiles than anyone wants.
+fn check_collisions(a: &SynthArgs) -> Result<()> {
+    let (w, h) = image::image_dimensions(&a.sketch).with_context(|| format!("{}: cannot read the sketch", a.sketch.display()))?;
+    let mut outputs: Vec<(String, PathBuf)> = vec![("--out".into(), a.out.clone())];
+    let sixteen_bit =
+        |p: &Path| matches!(p.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref(), Some("png" | "r16"));
+    if sixteen_bit(&a.out) {
+        outputs.push(("the sidecar of --out".into(), a.out.with_extension("json")));
+    }
+    if let Some(p) = &a.preview {
+        outputs.push(("--preview".into(), p.clone()));
+    }
+    if let Some(p) = &a.report {
+        outputs.push(("--report".into(), p.clone()));
+    }
+    if let Some(d) = &a.debug_dir {
+        outputs.extend(ridgeline::debug_outputs::DEBUG_FILES.iter().map(|f| ("--debug-dir".to_string(), d.join(f))));
+    }
+    if let Some(n) = a.tiles {
+        if n < 2 {
+            bail!("--tiles {n}: a tile needs at least 2 x 2 samples");
+        }
+        let per_tile = if sixteen_bit(&a.out) { 2 } else { 1 };
+        let cols = (w as usize).saturating_sub(1).div_ceil(n - 1).max(1);
+        let rows = (h as usize).saturating_sub(1).div_ceil(n - 1).max(1);
+        let files = cols * rows * per_tile;
+        if files > MAX_TILE_FILES {
+            bail!("--tiles {n}: a {w} x {h} terrain would make {cols} x {rows} tiles ({files} files, more than {MAX_TILE_FILES}); use larger tiles");
+        }
+        let stem = a.out.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        let ext = a.out.extension().map(|e| e.to_string_lossy().into_owned()).unwrap_or_default();
+        let dir = a.out.parent().map(Path::to_path_buf).unwrap_or_default();
+        outputs.push(("--tiles' index".into(), dir.join(format!("{stem}_tiles.json"))));
+        for row in 0..rows {
+            for col in 0..cols {
+                let tile = dir.join(format!("{stem}_x{col}_y{row}.{ext}"));
+                if per_tile == 2 {
+                    outputs.push(("a tile's sidecar".into(), tile.with_extension("json")));
+                }
+                outputs.push(("a tile".into(), tile));
+            }
+        }
+    }
+    let mut inputs: Vec<(String, PathBuf)> = vec![("--sketch".into(), a.sketch.clone())];
+    inputs.extend(a.workers_file.iter().map(|p| ("--workers-file".to_string(), p.clone())));
+    inputs.extend(a.tls_ca.iter().map(|p| ("--tls-ca".to_string(), p.clone())));
+    let library = a.exemplars.canonicalize().unwrap_or_else(|_| a.exemplars.clone());
+    let mut seen: std::collections::HashMap<PathBuf, String> =
+        inputs.iter().map(|(name, p)| (resolved(p), name.clone())).collect();
+    for (name, p) in &outputs {
+        let r = resolved(p);
+        if r == library || (library.is_dir() && r.parent() == Some(library.as_path())) {
+            bail!("{}: {name} would be written into the exemplar library {} (the next job would read it as an exemplar); write it elsewhere", p.display(), a.exemplars.display());
+        }
+        if let Some(other) = seen.insert(r, name.clone()) {
+            bail!("{}: {name} is the same file as {other}; nothing was written", p.display());
+        }
+    }
+    Ok(())
+}
+
 fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
     // validate every output path before the (long) job starts
     check_out(&a.out, &ridgeline_terrain::outputs::OUTPUT_EXTENSIONS)?;
@@ -305,11 +389,12 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
     if let Some(p) = &a.report {
         check_out(p, &["json"])?;
     }
-    if let Some(n) = a.tiles {
-        if n < 2 {
-            bail!("--tiles {n}: a tile needs at least 2 x 2 samples");
+    if let Some(d) = &a.debug_dir {
+        if d.exists() && !d.is_dir() {
+            bail!("--debug-dir {}: exists and is not a folder", d.display());
         }
     }
+    check_collisions(&a)?;
     let urls = worker_urls(&a)?;
     let cluster = if urls.is_empty() {
         None

@@ -308,8 +308,26 @@ fn validate(cfg: &SynthConfig) -> Result<(), SynthError> {
     if cfg.k == 0 || cfg.block == 0 {
         return Err(SynthError::Config("k and block must be at least 1".into()));
     }
+    if let Some(c) = cfg.cell_size {
+        if !c.is_finite() || c <= 0.0 || c > MAX_CELL_SIZE_M {
+            return Err(SynthError::Config(format!(
+                "cell size {c} m: give a positive number of metres, at most {MAX_CELL_SIZE_M}"
+            )));
+        }
+    }
+    let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    let max_threads = (4 * cores).max(8);
+    if cfg.threads > max_threads {
+        return Err(SynthError::Config(format!(
+            "{} threads on a machine with {cores} cores: more than {max_threads} only adds overhead (0 = all cores)",
+            cfg.threads
+        )));
+    }
     Ok(())
 }
+
+/// Largest output cell size accepted (a degree of latitude is about 111 km).
+pub const MAX_CELL_SIZE_M: f32 = 100_000.0;
 
 /// Synthesises a terrain for `sketch` from the given shards.
 pub fn synthesize(sketch: &Grid<u8>, shards: &[Arc<dyn ShardScorer>], cfg: &SynthConfig) -> Result<SynthOutput, SynthError> {

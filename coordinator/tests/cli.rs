@@ -232,3 +232,43 @@ fn fetch_dem_from_an_offline_mirror() {
     let (ok, err) = stderr_of(bin().args(["fetch-dem", "--area", "atlantis", "--out"]).arg(d.join("lib2")));
     assert!(!ok && err.contains("atlantis"), "{err}");
 }
+
+/// Issue 10: outputs that would overwrite an input or each other, and unusable
+/// settings, are refused before any work, and every file is left as it was.
+#[test]
+fn colliding_outputs_and_bad_settings_are_refused_before_any_work() {
+    let d = tmp("collide");
+    let sketch = small_sketch(&d);
+    let lib = d.join("lib");
+    std::fs::create_dir_all(&lib).unwrap();
+    std::fs::write(lib.join("a.asc"), "not read: the job must stop before the library").unwrap();
+    let before = std::fs::read(&sketch).unwrap();
+    let out_tif = d.join("t.tif").display().to_string();
+    let out_png = d.join("t.png").display().to_string();
+    let sk = sketch.display().to_string();
+    let libs = lib.display().to_string();
+    let same_dir_sketch = format!("{}/./../{}/sketch.png", d.display(), d.file_name().unwrap().to_string_lossy());
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (vec!["--out".into(), sk.clone()], "same file as --sketch"),
+        (vec!["--out".into(), same_dir_sketch], "same file as --sketch"),
+        (vec!["--out".into(), out_png.clone(), "--preview".into(), out_png.clone()], "same file as --out"),
+        (vec!["--out".into(), out_png.clone(), "--report".into(), d.join("t.json").display().to_string()], "sidecar"),
+        (vec!["--out".into(), lib.join("o.tif").display().to_string()], "exemplar library"),
+        (vec!["--out".into(), out_tif.clone(), "--tiles".into(), "2".into()], "more than"),
+        (vec!["--out".into(), out_tif.clone(), "--cell-size".into(), "nan".into()], "cell size"),
+        (vec!["--out".into(), out_tif.clone(), "--cell-size".into(), "0".into()], "cell size"),
+        (vec!["--out".into(), out_tif.clone(), "--threads".into(), "1000".into()], "threads"),
+    ];
+    for (extra, want) in cases {
+        let o = bin().args(["synth", "--sketch", &sk, "--exemplars", &libs, "--no-cache"]).args(&extra).output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{extra:?} should fail: {err}");
+        assert!(err.contains(want), "{extra:?}: expected '{want}' in: {err}");
+        assert!(!err.contains("a.asc"), "{extra:?}: the library was read before the settings were checked: {err}");
+        assert!(!err.contains('\u{1b}'), "colour codes in a log that is not a terminal: {err}");
+    }
+    assert_eq!(std::fs::read(&sketch).unwrap(), before, "the sketch was changed");
+    let left: Vec<String> =
+        std::fs::read_dir(&d).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    assert!(left.iter().all(|n| n == "sketch.png" || n == "lib"), "files written: {left:?}");
+}

@@ -59,12 +59,60 @@ pub fn read_dem_png(path: &Path, max_side: u32) -> Result<Grid<f32>> {
     decode_dem_png(path, &read_bytes(path)?, max_side)
 }
 
-/// Decodes a sketch as 8-bit luminance.
+/// Decodes a sketch as 8-bit values: 128 background, 255 ridge, 0 valley (and the
+/// shades between, read by luminance). The documented rule for other images:
+/// - an alpha channel is honoured: a pixel less than half opaque is background (paint
+///   tools export a transparent canvas);
+/// - a grey pixel (its channels within [`SKETCH_GREY_SPREAD`] of each other) is read
+///   by luminance;
+/// - a coloured pixel is a pen: red (red the largest channel) draws a ridge, blue a
+///   valley; any other colour is refused with an error naming the pixel, rather than
+///   silently read as something else.
 pub fn decode_sketch(path: &Path, bytes: &[u8], max_side: u32) -> Result<Grid<u8>> {
-    // `into_luma8` keeps an 8-bit grey image's buffer instead of copying it
-    let g = decode_image(path, bytes, max_side)?.into_luma8();
-    let (w, h) = (g.width() as usize, g.height() as usize);
-    Ok(Grid::from_vec(w, h, g.into_raw()))
+    let img = decode_image(path, bytes, max_side)?;
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    let grey_only = matches!(img, image::DynamicImage::ImageLuma8(_) | image::DynamicImage::ImageLuma16(_));
+    if grey_only {
+        // `into_luma8` keeps an 8-bit grey image's buffer instead of copying it
+        return Ok(Grid::from_vec(w, h, img.into_luma8().into_raw()));
+    }
+    let rgba = img.into_rgba8();
+    let mut out = Vec::with_capacity(w * h);
+    for (k, px) in rgba.pixels().enumerate() {
+        let [r, g, b, a] = px.0;
+        out.push(sketch_pixel(r, g, b, a).ok_or_else(|| TerrainError::Invalid {
+            path: path.to_path_buf(),
+            message: format!(
+                "pixel ({}, {}) has colour #{r:02x}{g:02x}{b:02x}: draw ridges in white or red, valleys in black or blue, on a grey (128) or transparent background",
+                k % w,
+                k / w
+            ),
+        })?);
+    }
+    Ok(Grid::from_vec(w, h, out))
+}
+
+/// Channels of a grey sketch pixel differ by at most this much.
+pub const SKETCH_GREY_SPREAD: u8 = 48;
+
+/// One RGBA sketch pixel by the rule of [`decode_sketch`]; `None` for a colour that
+/// is not a pen.
+pub fn sketch_pixel(r: u8, g: u8, b: u8, a: u8) -> Option<u8> {
+    if a < 128 {
+        return Some(128);
+    }
+    let (hi, lo) = (r.max(g).max(b), r.min(g).min(b));
+    if hi - lo <= SKETCH_GREY_SPREAD {
+        // ITU-R BT.601 luma, as the image crate's grey conversion
+        return Some(((r as u32 * 299 + g as u32 * 587 + b as u32 * 114 + 500) / 1000) as u8);
+    }
+    if r == hi && r > g.saturating_add(SKETCH_GREY_SPREAD) && r > b.saturating_add(SKETCH_GREY_SPREAD) {
+        Some(255)
+    } else if b == hi && b > r.saturating_add(SKETCH_GREY_SPREAD) && b > g.saturating_add(SKETCH_GREY_SPREAD) {
+        Some(0)
+    } else {
+        None
+    }
 }
 
 /// Reads a sketch as 8-bit luminance.
@@ -155,5 +203,38 @@ mod tests {
         std::fs::write(&p, b"\x89PNG\r\n\x1a\nthis is not a png").unwrap();
         let e = read_dem_png(&p, DEFAULT_MAX_SIDE).unwrap_err().to_string();
         assert!(e.contains("bad.png"), "{e}");
+    }
+
+    fn encode_png(img: image::DynamicImage) -> Vec<u8> {
+        let mut bytes = Vec::new();
+        img.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png).unwrap();
+        bytes
+    }
+
+    #[test]
+    fn transparent_background_and_colour_pens_are_read_by_the_rule() {
+        // a paint tool's export: transparent canvas, a red ridge, a blue valley, a
+        // white ridge and a black valley, and a half-grey pixel
+        let mut img = image::RgbaImage::from_pixel(5, 1, image::Rgba([0, 0, 0, 0]));
+        img.put_pixel(1, 0, image::Rgba([230, 20, 30, 255]));
+        img.put_pixel(2, 0, image::Rgba([10, 40, 220, 255]));
+        img.put_pixel(3, 0, image::Rgba([255, 255, 255, 255]));
+        img.put_pixel(4, 0, image::Rgba([128, 128, 128, 255]));
+        let g = decode_sketch(Path::new("s.png"), &encode_png(image::DynamicImage::ImageRgba8(img)), 64).unwrap();
+        assert_eq!(g.data, vec![128, 255, 0, 255, 128]);
+        // grey with alpha: transparent is background, opaque black a valley
+        let mut la = image::GrayAlphaImage::from_pixel(2, 1, image::LumaA([0, 0]));
+        la.put_pixel(1, 0, image::LumaA([0, 255]));
+        let g = decode_sketch(Path::new("s.png"), &encode_png(image::DynamicImage::ImageLumaA8(la)), 64).unwrap();
+        assert_eq!(g.data, vec![128, 0]);
+    }
+
+    #[test]
+    fn a_colour_that_is_no_pen_is_refused_with_its_position() {
+        let mut img = image::RgbImage::from_pixel(4, 3, image::Rgb([128, 128, 128]));
+        img.put_pixel(2, 1, image::Rgb([20, 200, 40]));
+        let e =
+            decode_sketch(Path::new("green.png"), &encode_png(image::DynamicImage::ImageRgb8(img)), 64).unwrap_err().to_string();
+        assert!(e.contains("green.png") && e.contains("(2, 1)") && e.contains("red"), "{e}");
     }
 }
