@@ -122,8 +122,8 @@ impl Level {
                     next[k] = s / n;
                 }
             }
+            // known cells are equal in both buffers; every unknown one is rewritten
             std::mem::swap(&mut self.v, &mut next);
-            next.copy_from_slice(&self.v);
         }
     }
 }

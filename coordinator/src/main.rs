@@ -7,6 +7,7 @@ use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 use ridgeline::fetch_dem::{fetch_area, write_exemplar, BBox, DirSource, HttpSource, TileSource, DEFAULT_URL};
 use ridgeline::pipeline::{run_job, Progress, SynthConfig};
+use ridgeline_terrain::outputs::{heightfield_files, TilePlan};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
@@ -322,12 +323,11 @@ fn resolved(p: &Path) -> PathBuf {
 /// more tiles than anyone wants.
 fn check_collisions(a: &SynthArgs) -> Result<()> {
     let (w, h) = image::image_dimensions(&a.sketch).with_context(|| format!("{}: cannot read the sketch", a.sketch.display()))?;
-    let mut outputs: Vec<(String, PathBuf)> = vec![("--out".into(), a.out.clone())];
-    let sixteen_bit =
-        |p: &Path| matches!(p.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref(), Some("png" | "r16"));
-    if sixteen_bit(&a.out) {
-        outputs.push(("the sidecar of --out".into(), a.out.with_extension("json")));
-    }
+    let mut outputs: Vec<(String, PathBuf)> = heightfield_files(&a.out)
+        .into_iter()
+        .enumerate()
+        .map(|(i, p)| (if i == 0 { "--out" } else { "the sidecar of --out" }.to_string(), p))
+        .collect();
     if let Some(p) = &a.preview {
         outputs.push(("--preview".into(), p.clone()));
     }
@@ -338,29 +338,17 @@ fn check_collisions(a: &SynthArgs) -> Result<()> {
         outputs.extend(ridgeline::debug_outputs::DEBUG_FILES.iter().map(|f| ("--debug-dir".to_string(), d.join(f))));
     }
     if let Some(n) = a.tiles {
-        if n < 2 {
-            bail!("--tiles {n}: a tile needs at least 2 x 2 samples");
-        }
-        let per_tile = if sixteen_bit(&a.out) { 2 } else { 1 };
-        let cols = (w as usize).saturating_sub(1).div_ceil(n - 1).max(1);
-        let rows = (h as usize).saturating_sub(1).div_ceil(n - 1).max(1);
-        let files = cols * rows * per_tile;
+        let plan = TilePlan::new(&a.out, w as usize, h as usize, n)
+            .map_err(|_| anyhow::anyhow!("--tiles {n}: a tile needs at least 2 x 2 samples"))?;
+        let files = plan.file_count();
         if files > MAX_TILE_FILES {
-            bail!("--tiles {n}: a {w} x {h} terrain would make {cols} x {rows} tiles ({files} files, more than {MAX_TILE_FILES}); use larger tiles");
+            bail!(
+                "--tiles {n}: a {w} x {h} terrain would make {} x {} tiles ({files} files, more than {MAX_TILE_FILES}); use larger tiles",
+                plan.columns,
+                plan.rows
+            );
         }
-        let stem = a.out.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-        let ext = a.out.extension().map(|e| e.to_string_lossy().into_owned()).unwrap_or_default();
-        let dir = a.out.parent().map(Path::to_path_buf).unwrap_or_default();
-        outputs.push(("--tiles' index".into(), dir.join(format!("{stem}_tiles.json"))));
-        for row in 0..rows {
-            for col in 0..cols {
-                let tile = dir.join(format!("{stem}_x{col}_y{row}.{ext}"));
-                if per_tile == 2 {
-                    outputs.push(("a tile's sidecar".into(), tile.with_extension("json")));
-                }
-                outputs.push(("a tile".into(), tile));
-            }
-        }
+        outputs.extend(plan.files().into_iter().map(|p| ("--tiles".to_string(), p)));
     }
     let mut inputs: Vec<(String, PathBuf)> = vec![("--sketch".into(), a.sketch.clone())];
     inputs.extend(a.workers_file.iter().map(|p| ("--workers-file".to_string(), p.clone())));

@@ -256,12 +256,8 @@ impl Canvas {
                 if !unknown[e] {
                     continue;
                 }
-                let mut fixed_nb =
-                    [(i > 0, e.wrapping_sub(1)), (i + 1 < ew, e + 1), (j > 0, e.wrapping_sub(ew)), (j + 1 < eh, e + ew)]
-                        .into_iter()
-                        .filter(|&(ok, q)| ok && !fixed[q].is_nan())
-                        .map(|(_, q)| q);
-                let Some(first) = fixed_nb.next() else { continue };
+                let nbs = [(i > 0, e.wrapping_sub(1)), (i + 1 < ew, e + 1), (j > 0, e.wrapping_sub(ew)), (j + 1 < eh, e + ew)];
+                let Some((_, first)) = nbs.into_iter().find(|&(ok, q)| ok && !fixed[q].is_nan()) else { continue };
                 // the old terrain's gradient here, or (where the cell was empty: the seam
                 // runs along the hole's edge) at the fixed neighbour, one-sided into the old
                 let at = if aa[e].is_nan() { first } else { e };

@@ -116,6 +116,17 @@ fn ext_of(path: &Path) -> String {
 /// Output extensions [`write_heightfield`] accepts.
 pub const OUTPUT_EXTENSIONS: [&str; 4] = ["tif", "tiff", "png", "r16"];
 
+/// The `.json` sidecar a 16-bit output (`.png`, `.r16`) is written with; `None` for
+/// formats that carry metres themselves.
+pub fn sidecar_path(path: &Path) -> Option<PathBuf> {
+    matches!(ext_of(path).as_str(), "png" | "r16").then(|| path.with_extension("json"))
+}
+
+/// Every file [`write_heightfield`] writes for `path`: the file and its sidecar.
+pub fn heightfield_files(path: &Path) -> Vec<PathBuf> {
+    std::iter::once(path.to_path_buf()).chain(sidecar_path(path)).collect()
+}
+
 fn write_with_sidecar(path: &Path, h: &Heightfield, side: &Png16Sidecar, cell: Option<f32>) -> Result<()> {
     let ext = ext_of(path);
     match ext.as_str() {
@@ -219,40 +230,85 @@ pub struct TileIndex {
     pub tiles: Vec<TileEntry>,
 }
 
+/// Where an `n x n`-sample tiling of a `width x height` terrain written as `out`
+/// goes: `{stem}_x{col}_y{row}.{ext}` beside `out`, and the `{stem}_tiles.json` index.
+#[derive(Debug, Clone)]
+pub struct TilePlan {
+    dir: PathBuf,
+    stem: String,
+    ext: String,
+    pub n: usize,
+    /// Distance between tile origins (`n - 1`: tiles share their border).
+    pub stride: usize,
+    pub columns: usize,
+    pub rows: usize,
+}
+
+impl TilePlan {
+    pub fn new(out: &Path, width: usize, height: usize, n: usize) -> Result<TilePlan> {
+        if n < 2 {
+            return Err(TerrainError::Invalid { path: out.to_path_buf(), message: format!("tile size {n} must be at least 2") });
+        }
+        let stride = n - 1;
+        Ok(TilePlan {
+            dir: out.parent().filter(|p| !p.as_os_str().is_empty()).map(Path::to_path_buf).unwrap_or_else(|| PathBuf::from(".")),
+            stem: out.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "terrain".into()),
+            ext: ext_of(out),
+            n,
+            stride,
+            columns: width.saturating_sub(1).div_ceil(stride).max(1),
+            rows: height.saturating_sub(1).div_ceil(stride).max(1),
+        })
+    }
+
+    /// File name of the tile at (col, row).
+    pub fn tile_name(&self, col: usize, row: usize) -> String {
+        format!("{}_x{col}_y{row}.{}", self.stem, self.ext)
+    }
+
+    pub fn index_path(&self) -> PathBuf {
+        self.dir.join(format!("{}_tiles.json", self.stem))
+    }
+
+    /// Every file the tiling writes: tiles, their sidecars, the index.
+    pub fn files(&self) -> Vec<PathBuf> {
+        let tiles = (0..self.rows).flat_map(|r| (0..self.columns).map(move |c| (c, r)));
+        tiles.flat_map(|(c, r)| heightfield_files(&self.dir.join(self.tile_name(c, r)))).chain([self.index_path()]).collect()
+    }
+
+    /// How many files [`TilePlan::files`] lists, without listing them.
+    pub fn file_count(&self) -> usize {
+        let per_tile = heightfield_files(Path::new(&format!("t.{}", self.ext))).len();
+        self.columns * self.rows * per_tile + 1
+    }
+}
+
 /// Writes `h` as `n x n` tiles beside `out` in `out`'s format; returns the index path.
 pub fn write_tiles(out: &Path, h: &Heightfield, n: usize, cell: Option<f32>) -> Result<PathBuf> {
-    if n < 2 {
-        return Err(TerrainError::Invalid { path: out.to_path_buf(), message: format!("tile size {n} must be at least 2") });
-    }
-    let ext = ext_of(out);
-    let stem = out.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "terrain".into());
-    let dir = out.parent().filter(|p| !p.as_os_str().is_empty()).map(Path::to_path_buf).unwrap_or_else(|| PathBuf::from("."));
-    let stride = n - 1;
-    let cols = (h.width.saturating_sub(1)).div_ceil(stride).max(1);
-    let rows = (h.height.saturating_sub(1)).div_ceil(stride).max(1);
+    let plan = TilePlan::new(out, h.width, h.height, n)?;
     let (lo, hi) = h.finite_range().unwrap_or((0.0, 0.0));
     let side = Png16Sidecar::for_range(lo, hi, n, n);
     let mut index = TileIndex {
         tile_size: n,
-        stride,
-        columns: cols,
-        rows,
+        stride: plan.stride,
+        columns: plan.columns,
+        rows: plan.rows,
         width: h.width,
         height: h.height,
-        elevation: (ext != "tif" && ext != "tiff").then(|| side.clone()),
+        elevation: sidecar_path(out).map(|_| side.clone()),
         tiles: Vec::new(),
     };
-    for row in 0..rows {
-        for col in 0..cols {
-            let (x0, y0) = (col * stride, row * stride);
+    for row in 0..plan.rows {
+        for col in 0..plan.columns {
+            let (x0, y0) = (col * plan.stride, row * plan.stride);
             let mut t = Grid::new(n, n, 0f32);
             for j in 0..n {
                 for i in 0..n {
                     t.set(i, j, h.get((x0 + i).min(h.width - 1), (y0 + j).min(h.height - 1)));
                 }
             }
-            let file = format!("{stem}_x{col}_y{row}.{ext}");
-            write_with_sidecar(&dir.join(&file), &t, &side, cell)?;
+            let file = plan.tile_name(col, row);
+            write_with_sidecar(&plan.dir.join(&file), &t, &side, cell)?;
             index.tiles.push(TileEntry {
                 file,
                 col,
@@ -264,7 +320,7 @@ pub fn write_tiles(out: &Path, h: &Heightfield, n: usize, cell: Option<f32>) -> 
             });
         }
     }
-    let ip = dir.join(format!("{stem}_tiles.json"));
+    let ip = plan.index_path();
     write_atomic(&ip, &serde_json::to_vec_pretty(&index).map_err(|e| other(&ip, e))?)?;
     Ok(ip)
 }
