@@ -53,9 +53,14 @@ pub struct WorkerProc {
 
 impl WorkerProc {
     pub fn start(data_dir: &std::path::Path, token: Option<&str>) -> WorkerProc {
+        Self::start_with(data_dir, token, &["--gpu", "off"])
+    }
+
+    /// As [`WorkerProc::start`], with more command-line arguments.
+    pub fn start_with(data_dir: &std::path::Path, token: Option<&str>, args: &[&str]) -> WorkerProc {
         use std::io::BufRead;
         let mut c = std::process::Command::new(ridgeline_bin());
-        c.args(["worker", "--listen", "127.0.0.1:0", "--threads", "1", "--data-dir"]).arg(data_dir);
+        c.args(["worker", "--listen", "127.0.0.1:0", "--threads", "1", "--data-dir"]).arg(data_dir).args(args);
         c.env_remove("RIDGELINE_TOKEN").env("RUST_LOG", "info");
         if let Some(t) = token {
             c.args(["--token", t]);

@@ -34,7 +34,7 @@ fn main() {
     let specs = scan_library(&data.join("dems")).expect("library");
     let cell = common_cell_size(&specs);
     let cache = std::env::temp_dir().join("ridgeline-kernels-bench-cache");
-    let cfg = ShardConfig { patch: PATCH, out_cell: cell, max_side: 16384, cache: Some(FeatureCache::new(&cache)) };
+    let cfg = ShardConfig { patch: PATCH, out_cell: cell, max_side: 16384, cache: Some(FeatureCache::new(&cache)), gpu: None };
     let items: Vec<_> = specs.into_iter().enumerate().map(|(i, s)| (i as u32, s)).collect();
     let shard = InProcessShard::load(&items, &cfg);
     let sources = shard.source_data();

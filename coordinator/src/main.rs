@@ -61,6 +61,11 @@ struct WorkerArgs {
     /// Largest exemplar upload accepted, in MiB.
     #[arg(long, default_value_t = 2048)]
     max_exemplar_mb: u64,
+    /// Score on the GPU: auto (a real GPU if present, else the CPU), on (fail without
+    /// one), off, or software (any Vulkan adapter, Mesa's lavapipe included: for
+    /// testing). The output bytes do not depend on it.
+    #[arg(long, default_value = "auto")]
+    gpu: ridgeline_worker::GpuMode,
 }
 
 #[derive(clap::Args)]
@@ -130,6 +135,11 @@ struct SynthArgs {
     /// User patches per round-1 block.
     #[arg(long, default_value_t = 16)]
     block_size: usize,
+    /// Score in-process shards on the GPU: auto (a real GPU if present, else the CPU),
+    /// on (fail without one), off, or software (any Vulkan adapter, Mesa's lavapipe
+    /// included: for testing). The output bytes do not depend on it.
+    #[arg(long, default_value = "auto")]
+    gpu: ridgeline_worker::GpuMode,
 }
 
 #[derive(clap::Args)]
@@ -166,6 +176,12 @@ fn job_id() -> String {
 }
 
 fn main() -> std::process::ExitCode {
+    // Vulkan drivers probe for a Wayland display and print "error: XDG_RUNTIME_DIR is
+    // invalid" to stderr when it is unset (servers, containers); ridgeline never draws
+    // to a display, so point it at the temporary folder. Set before any thread exists.
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
+        std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir());
+    }
     let cli = Cli::parse();
     let interactive = std::io::stderr().is_terminal() && cli.log_format == LogFormat::Text;
     // on a terminal the progress bars carry the news; logs stay at warn unless RUST_LOG says otherwise
@@ -266,10 +282,15 @@ fn worker(a: WorkerArgs) -> Result<()> {
         max_exemplar_bytes: a.max_exemplar_mb << 20,
         max_shards: 8,
         threads: a.threads,
+        gpu: ridgeline_worker::GpuContext::open(a.gpu)?,
     };
     let tls = match (a.tls_cert, a.tls_key) {
         (Some(cert), Some(key)) => Some(ridgeline_worker::grpc_service::TlsFiles { cert, key }),
         _ => None,
+    };
+    let (backend, adapter) = match &cfg.gpu {
+        Some(g) => ("gpu", g.info.adapter.clone()),
+        None => ("cpu", "rayon".to_string()),
     };
     let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
     rt.block_on(async move {
@@ -278,7 +299,7 @@ fn worker(a: WorkerArgs) -> Result<()> {
         println!("listening on {addr}");
         use std::io::Write;
         std::io::stdout().flush()?;
-        tracing::info!(%addr, data_dir = %data_dir.display(), "worker serving");
+        tracing::info!(%addr, data_dir = %data_dir.display(), %backend, %adapter, "worker serving");
         let shutdown = async {
             let _ = tokio::signal::ctrl_c().await;
         };
@@ -407,6 +428,7 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
         max_side: a.max_side,
         progress: if interactive { progress_bars() } else { Progress::default() },
         keep_features_only: a.debug_dir.is_some(),
+        gpu: a.gpu,
         ..SynthConfig::default()
     };
     let out = run_job(&a.sketch, &a.exemplars, &cfg).context("synthesis failed")?;

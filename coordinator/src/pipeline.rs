@@ -31,7 +31,7 @@ use ridgeline_terrain::grid::{Grid, Heightfield};
 use ridgeline_terrain::library::{common_cell_size, scan_library, ExemplarSpec};
 use ridgeline_terrain::shard::{ShardError, ShardScorer, SourceInfo};
 use ridgeline_terrain::TerrainError;
-use ridgeline_worker::{FeatureCache, InProcessShard, ShardConfig};
+use ridgeline_worker::{FeatureCache, GpuContext, GpuMode, InProcessShard, ShardConfig};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -99,6 +99,8 @@ pub struct SynthConfig {
     /// Keep a copy of the terrain before hole filling (`SynthOutput::features_only`,
     /// for debug views): 4 more bytes per output cell.
     pub keep_features_only: bool,
+    /// What in-process shards score on (`--gpu`); the output bytes do not depend on it.
+    pub gpu: GpuMode,
 }
 
 /// A progress callback: `(stage, done, total)`.
@@ -138,6 +140,7 @@ impl Default for SynthConfig {
             cluster: None,
             keep_features_only: false,
             max_batch: 0,
+            gpu: GpuMode::Auto,
         }
     }
 }
@@ -157,6 +160,8 @@ pub enum SynthError {
     Config(String),
     #[error("thread pool: {0}")]
     Threads(String),
+    #[error(transparent)]
+    Gpu(#[from] ridgeline_worker::gpu::GpuError),
 }
 
 /// Wall time of one stage.
@@ -256,6 +261,7 @@ pub fn load_library(dir: &Path, cfg: &SynthConfig) -> Result<(Shards, Option<f32
         out_cell: cell,
         max_side: cfg.max_side,
         cache: cfg.cache_dir.clone().map(FeatureCache::new),
+        gpu: if cfg.cluster.is_none() { GpuContext::open(cfg.gpu)? } else { None },
     };
     let items: Vec<(u32, ExemplarSpec)> = specs.into_iter().enumerate().map(|(i, s)| (i as u32, s)).collect();
     let shards: Shards = match &cfg.cluster {
@@ -291,8 +297,9 @@ pub fn run_job(sketch_path: &Path, exemplar_dir: &Path, cfg: &SynthConfig) -> Re
     let sketch = ridgeline_terrain::io::read_sketch(sketch_path, cfg.max_side)?;
     let t = Instant::now();
     let (shards, cell) = {
-        let _s = tracing::info_span!("stage", name = "exemplars").entered();
-        pool.install(|| load_library(exemplar_dir, cfg))?
+        let stage = tracing::info_span!("stage", name = "exemplars");
+        // pool threads do not inherit the span: enter it there, so every event names the job
+        pool.install(|| stage.in_scope(|| load_library(exemplar_dir, cfg)))?
     };
     let load_s = t.elapsed().as_secs_f64();
     let mut out = synthesize_in(sketch, &shards, cfg, &pool)?;

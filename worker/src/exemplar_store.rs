@@ -18,6 +18,8 @@ pub struct ShardConfig {
     pub out_cell: Option<f32>,
     pub max_side: u32,
     pub cache: Option<FeatureCache>,
+    /// The device to keep the shard resident on and score with; `None`: the CPU.
+    pub gpu: Option<std::sync::Arc<crate::gpu::GpuContext>>,
 }
 
 /// One loaded exemplar.

@@ -17,37 +17,89 @@ use rayon::prelude::*;
 use ridgeline_terrain::costs::{jitter, noise_cost, repeats, LaneSums, ALPHA_N, ALPHA_O, BETA_C, REPEAT_PENALTY, SEED_JITTER};
 use ridgeline_terrain::shard::{FillBestSet, FillCandidate, FillQuery};
 
-/// Scores one target against the featureless candidates of `sources` (variant maps
-/// from `variant_maps(patch)`) and keeps the `k` best in the total order.
-pub fn best_fill_set(sources: &[Source], maps: &[Vec<u32>], q: &FillQuery, seed: u64, k: usize, patch: usize) -> FillBestSet {
-    let coherence = |source: u32| q.coherence.iter().find(|c| c.0 == source).map(|c| c.1).unwrap_or(0.0);
-    // per variant, the candidate-pixel index of every sample: one gather per sample in
-    // the loop over candidates instead of two
-    let values: Vec<f32> = q.samples.iter().map(|s| s.1).collect();
-    let mapped: Vec<Vec<u32>> = maps.iter().map(|map| q.samples.iter().map(|&(i, _)| map[i as usize]).collect()).collect();
-    let (values, mapped) = (&values, &mapped);
-    let mut scored: Vec<(f32, u32, u32, u32, u8, usize, usize)> = sources
-        .par_iter()
-        .enumerate()
-        .flat_map_iter(|(si, s)| {
-            let coh = coherence(s.id);
-            s.featureless.iter().enumerate().flat_map(move |(ci, c)| {
-                let rep = repeats(patch, &q.avoid, s.id, c.x, c.y);
-                let cn = q.noise.map(|u| noise_cost(&u, &c.noise)).unwrap_or(0.0);
-                mapped.iter().enumerate().map(move |(vi, idx)| {
-                    let (sum, sum2) = moments(&c.pixels, idx, values);
-                    let n = q.samples.len().max(1) as f64;
-                    let co = ((sum2 / n - (sum / n) * (sum / n)).max(0.0)).sqrt() as f32 / q.relief;
-                    let j = SEED_JITTER * jitter(seed, &[s.id as u64, c.x as u64, c.y as u64, vi as u64, 7]);
-                    let cost = ALPHA_O * co + ALPHA_N * cn - BETA_C * coh + if rep { REPEAT_PENALTY } else { 0.0 } + j;
-                    (cost, s.id, c.y, c.x, vi as u8, si, ci)
-                })
-            })
-        })
-        .collect();
-    let order = |a: &(f32, u32, u32, u32, u8, usize, usize), b: &(f32, u32, u32, u32, u8, usize, usize)| {
-        a.0.total_cmp(&b.0).then((a.1, a.2, a.3, a.4).cmp(&(b.1, b.2, b.3, b.4)))
+// the kernel spells out the three levels
+const _: () = assert!(ridgeline_terrain::costs::NOISE_LEVELS == 3);
+
+/// Width of the GPU filter window above a target's k-th smallest filter cost.
+pub const DELTA: f32 = 2e-3;
+
+/// A target's samples laid out for scoring: the known values, and per variant the
+/// candidate-pixel index of every sample (one gather per sample instead of two).
+pub struct Prepared {
+    pub values: Vec<f32>,
+    pub mapped: Vec<Vec<u32>>,
+}
+
+pub fn prepare(maps: &[Vec<u32>], q: &FillQuery) -> Prepared {
+    Prepared {
+        values: q.samples.iter().map(|s| s.1).collect(),
+        mapped: maps.iter().map(|map| q.samples.iter().map(|&(i, _)| map[i as usize]).collect()).collect(),
+    }
+}
+
+/// The coherence share of `source` in the target window.
+fn coherence(q: &FillQuery, source: u32) -> f32 {
+    q.coherence.iter().find(|c| c.0 == source).map(|c| c.1).unwrap_or(0.0)
+}
+
+/// The seed's jitter of one candidate-variant.
+pub fn seed_jitter(seed: u64, source: u32, x: u32, y: u32, vi: usize) -> f32 {
+    SEED_JITTER * jitter(seed, &[source as u64, x as u64, y as u64, vi as u64, 7])
+}
+
+/// The ranking form of a candidate-variant's cost (CPU only; f64 sums in `LaneSums` order).
+pub fn exact_cost(q: &FillQuery, prep: &Prepared, s: &Source, ci: usize, vi: usize, seed: u64, patch: usize) -> f32 {
+    let c = &s.featureless[ci];
+    let rep = repeats(patch, &q.avoid, s.id, c.x, c.y);
+    let cn = q.noise.map(|u| noise_cost(&u, &c.noise)).unwrap_or(0.0);
+    let (sum, sum2) = moments(&c.pixels, &prep.mapped[vi], &prep.values);
+    let n = q.samples.len().max(1) as f64;
+    let co = ((sum2 / n - (sum / n) * (sum / n)).max(0.0)).sqrt() as f32 / q.relief;
+    ALPHA_O * co + ALPHA_N * cn - BETA_C * coherence(q, s.id)
+        + if rep { REPEAT_PENALTY } else { 0.0 }
+        + seed_jitter(seed, s.id, c.x, c.y, vi)
+}
+
+/// Twin of the shader's `candidate_cost` (f32; the filter), given the seed's jitter.
+pub fn approx_cost(q: &FillQuery, prep: &Prepared, s: &Source, ci: usize, vi: usize, jit: f32, patch: usize) -> f32 {
+    let c = &s.featureless[ci];
+    let (idx, vals) = (&prep.mapped[vi], &prep.values);
+    let co = if vals.is_empty() {
+        0.0
+    } else {
+        let d0 = c.pixels[idx[0] as usize] - vals[0];
+        let mut sum = 0.0f32;
+        for (&i, &v) in idx.iter().zip(vals) {
+            sum += (c.pixels[i as usize] - v) - d0;
+        }
+        let m = sum / vals.len() as f32;
+        let mut ss = 0.0f32;
+        for (&i, &v) in idx.iter().zip(vals) {
+            let e = (c.pixels[i as usize] - v) - d0 - m;
+            ss += e * e;
+        }
+        (ss / vals.len() as f32).sqrt()
+    } / q.relief;
+    let cn = match q.noise {
+        Some(u) => {
+            let d = [u[0] - c.noise[0], u[1] - c.noise[1], u[2] - c.noise[2]];
+            (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() / 3.0
+        }
+        None => 0.0,
     };
+    let rep = if repeats(patch, &q.avoid, s.id, c.x, c.y) { REPEAT_PENALTY } else { 0.0 };
+    ALPHA_O * co + ALPHA_N * cn - BETA_C * coherence(q, s.id) + rep + jit
+}
+
+/// A scored candidate-variant: (cost, source id, y, x, variant, source index, candidate index).
+pub type Scored = (f32, u32, u32, u32, u8, usize, usize);
+
+fn order(a: &Scored, b: &Scored) -> std::cmp::Ordering {
+    a.0.total_cmp(&b.0).then((a.1, a.2, a.3, a.4).cmp(&(b.1, b.2, b.3, b.4)))
+}
+
+/// The k best of `scored` in the total order, with their pixels in the variant.
+pub fn finish(sources: &[Source], maps: &[Vec<u32>], q: &FillQuery, mut scored: Vec<Scored>, k: usize) -> FillBestSet {
     if scored.len() > k {
         scored.select_nth_unstable_by(k, order);
         scored.truncate(k);
@@ -68,6 +120,26 @@ pub fn best_fill_set(sources: &[Source], maps: &[Vec<u32>], q: &FillQuery, seed:
         })
         .collect();
     FillBestSet { target: q.id, entries }
+}
+
+/// Scores one target against the featureless candidates of `sources` (variant maps
+/// from `variant_maps(patch)`) in the ranking form and keeps the `k` best in the total
+/// order: the CPU backend. (On a CPU the ranking form costs no more than the filter,
+/// so the CPU backend ranks directly; `approx_cost` is the GPU kernel's twin.)
+pub fn best_fill_set(sources: &[Source], maps: &[Vec<u32>], q: &FillQuery, seed: u64, k: usize, patch: usize) -> FillBestSet {
+    let prep = prepare(maps, q);
+    let prep = &prep;
+    let scored: Vec<Scored> = sources
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(si, s)| {
+            s.featureless.iter().enumerate().flat_map(move |(ci, c)| {
+                (0..prep.mapped.len())
+                    .map(move |vi| (exact_cost(q, prep, s, ci, vi, seed, patch), s.id, c.y, c.x, vi as u8, si, ci))
+            })
+        })
+        .collect();
+    finish(sources, maps, q, scored, k)
 }
 
 /// Σd and Σd² of the differences d = pixels[idx[i]] − values[i] (`LaneSums` order).

@@ -35,6 +35,8 @@ pub struct WorkerConfig {
     /// Shards kept loaded (oldest dropped first).
     pub max_shards: usize,
     pub threads: usize,
+    /// The device shards are scored on; `None`: the CPU.
+    pub gpu: Option<Arc<crate::GpuContext>>,
 }
 
 struct Loaded {
@@ -65,6 +67,18 @@ impl WorkerService {
         std::fs::create_dir_all(cfg.data_dir.join("exemplars"))?;
         let pool = rayon::ThreadPoolBuilder::new().num_threads(cfg.threads).build().map_err(std::io::Error::other)?;
         Ok(WorkerService { cfg, shards: Arc::new(Mutex::new(Vec::new())), pool: Arc::new(pool) })
+    }
+
+    /// What the worker scores on.
+    pub fn backend_info(&self) -> crate::BackendInfo {
+        match &self.cfg.gpu {
+            Some(g) => g.info.clone(),
+            None => crate::BackendInfo {
+                backend: "cpu",
+                adapter: format!("rayon, {} threads", self.pool.current_num_threads()),
+                max_buffer_bytes: 0,
+            },
+        }
     }
 
     fn exemplar_path(&self, hash: &str) -> Option<PathBuf> {
@@ -101,7 +115,9 @@ impl Worker for WorkerService {
     async fn capabilities(&self, _r: Request<v1::CapabilitiesRequest>) -> Result<Response<v1::CapabilitiesReply>, Status> {
         Ok(Response::new(v1::CapabilitiesReply {
             protocol_version: PROTOCOL_VERSION,
-            backend: "cpu".into(),
+            backend: self.backend_info().backend.into(),
+            adapter: self.backend_info().adapter,
+            max_buffer_bytes: self.backend_info().max_buffer_bytes,
             threads: self.pool.current_num_threads() as u32,
             memory_bytes: system_memory(),
             version: env!("CARGO_PKG_VERSION").into(),
@@ -214,6 +230,7 @@ impl Worker for WorkerService {
             out_cell: r.out_cell,
             max_side: ridgeline_terrain::io::DEFAULT_MAX_SIDE,
             cache: Some(FeatureCache::new(self.cfg.data_dir.join("features"))),
+            gpu: self.cfg.gpu.clone(),
         };
         let pool = self.pool.clone();
         let names: BTreeMap<String, String> = r.exemplars.iter().map(|e| (e.content_hash.clone(), e.name.clone())).collect();

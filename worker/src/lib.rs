@@ -4,16 +4,20 @@
 //! blocks of user patches. [`InProcessShard`] is the embedded implementation of the
 //! coordinator's `ShardScorer` trait; the gRPC service wraps the same store.
 
+pub mod backend;
 pub mod candidates;
 pub mod exemplar_store;
 pub mod feature_cache;
 pub mod fill_scoring;
+pub mod gpu;
 pub mod grpc_service;
 pub mod patch_matching;
 
 pub use exemplar_store::{load_source, ShardConfig, Source};
 pub use feature_cache::FeatureCache;
+pub use gpu::{BackendInfo, GpuContext, GpuMode};
 
+use backend::{CpuBackend, GpuBackend, ScoringBackend};
 use rayon::prelude::*;
 use ridgeline_terrain::library::ExemplarSpec;
 use ridgeline_terrain::shard::{
@@ -21,7 +25,8 @@ use ridgeline_terrain::shard::{
 };
 use std::sync::Arc;
 
-/// A shard served from this process, scored with the rayon CPU kernel.
+/// A shard served from this process, scored on the CPU or, when `ShardConfig::gpu`
+/// holds a device, on the GPU.
 #[derive(Debug, Clone)]
 pub struct InProcessShard {
     sources: Arc<Vec<Source>>,
@@ -29,6 +34,7 @@ pub struct InProcessShard {
     patch: usize,
     /// Index maps of the 6 featureless variants.
     maps: Arc<Vec<Vec<u32>>>,
+    backend: Arc<dyn ScoringBackend>,
 }
 
 impl InProcessShard {
@@ -57,7 +63,17 @@ impl InProcessShard {
             }
         }
         let maps = Arc::new(ridgeline_terrain::patch_geometry::variant_maps(cfg.patch));
-        InProcessShard { sources: Arc::new(sources), skipped, patch: cfg.patch, maps }
+        let backend: Arc<dyn ScoringBackend> = match &cfg.gpu {
+            Some(ctx) => match GpuBackend::new(ctx.clone(), &sources, cfg.patch) {
+                Ok(b) => Arc::new(b),
+                Err(e) => {
+                    tracing::warn!(reason = %e, "shard scored on the CPU");
+                    Arc::new(CpuBackend)
+                }
+            },
+            None => Arc::new(CpuBackend),
+        };
+        InProcessShard { sources: Arc::new(sources), skipped, patch: cfg.patch, maps, backend }
     }
 
     /// Replaces file names of the form `{content hash}.{ext}` (how a worker stores
@@ -82,6 +98,11 @@ impl InProcessShard {
 
     pub fn source_data(&self) -> &[Source] {
         &self.sources
+    }
+
+    /// What this shard scores on.
+    pub fn backend(&self) -> &dyn ScoringBackend {
+        self.backend.as_ref()
     }
 }
 
@@ -119,19 +140,15 @@ impl ShardScorer for InProcessShard {
                 return Err(ShardError::BadRequest(format!("user patch {}: profile reaches outside the patch", q.id)));
             }
         }
-        // source-major, so a thread scores consecutive user patches against the same
-        // source while its heights are in the core's cache; returned in (user patch,
-        // source) order
-        let pairs: Vec<(usize, usize)> = (0..self.sources.len()).flat_map(|s| (0..block.len()).map(move |b| (s, b))).collect();
-        let mut sets: Vec<Option<BestSet>> = pairs
-            .par_iter()
-            .map(|&(s, b)| {
-                let _span = tracing::trace_span!("best_set", user_patch = block[b].id, source = self.sources[s].id).entered();
-                Some(patch_matching::best_set(&self.sources[s], &block[b], k, self.patch))
-            })
-            .collect();
-        let (n, ns) = (block.len(), self.sources.len());
-        Ok((0..n).flat_map(|b| (0..ns).map(move |s| s * n + b)).filter_map(|i| sets[i].take()).collect())
+        let t = std::time::Instant::now();
+        let sets = self.backend.round1(&self.sources, block, k, self.patch).map_err(ShardError::Unavailable)?;
+        tracing::debug!(
+            backend = self.backend.info().backend,
+            user_patches = block.len(),
+            seconds = t.elapsed().as_secs_f64(),
+            "block scored"
+        );
+        Ok(sets)
     }
 
     fn score_fill(&self, targets: &[FillQuery], seed: u64, k: usize) -> Result<Vec<FillBestSet>, ShardError> {
@@ -139,6 +156,6 @@ impl ShardScorer for InProcessShard {
             return Err(ShardError::BadRequest("k must be at least 1".into()));
         }
         fill_scoring::validate(targets, self.patch).map_err(ShardError::BadRequest)?;
-        Ok(targets.par_iter().map(|q| fill_scoring::best_fill_set(&self.sources, &self.maps, q, seed, k, self.patch)).collect())
+        Ok(self.backend.fill(&self.sources, &self.maps, targets, seed, k, self.patch))
     }
 }

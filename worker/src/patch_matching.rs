@@ -3,112 +3,83 @@
 //! variants, by feature-profile cost plus angle cost (Tasse 2012 §4.2.1 weights);
 //! the k cheapest per user patch per source form its best-set.
 //!
-//! This is the plain-Rust kernel (the CPU backend, parallel over user patch x source
-//! with rayon). For each user patch and variant the profile sample offsets are
-//! transformed once into flat index offsets into the source, so a candidate costs only
-//! gathers. The angle cost is a lower bound of the total, so a candidate whose angle
-//! cost alone exceeds the current k-th best is skipped without changing the result.
+//! This module is the CPU backend and the CPU twin of `shaders/round1.wgsl`. Both
+//! backends work in two steps, so they return the same bytes:
+//! 1. a filter: [`approx_cost`] (f32, line by line the shader's `candidate_cost`) for
+//!    every candidate-variant, keeping those within [`DELTA`] of the pair's k-th
+//!    smallest ([`window`]); here the loop also skips a candidate whose angle cost, or
+//!    partial profile cost, alone exceeds that threshold, which keeps the same set;
+//! 2. the ranking: [`rank_cost`] re-scores the kept few on the CPU with f64 sums in a
+//!    fixed order (identical on every CPU: Rust never contracts to fused multiply-adds)
+//!    and the k best in the total order (cost, then candidate) are the best-set.
+//!
+//! The filter's error against the ranking form (about 1e-5 on normalised profiles,
+//! measured by the tests) is far below DELTA/2, so every candidate of the ranking
+//! form's k best passes the filter on any device.
 
 use crate::exemplar_store::Source;
-use ridgeline_terrain::costs::{angle_cost_mapped, branch_mismatch, profile_rms, ALPHA_A, ALPHA_F};
+use ridgeline_terrain::costs::{angle_cost_mapped, branch_mismatch, ALPHA_A, ALPHA_F};
 use ridgeline_terrain::feature_extraction::FeatureKind;
-use ridgeline_terrain::patch_geometry::{extract_patch, normalise_profile, FEATURE_VARIANTS};
+use ridgeline_terrain::patch_geometry::{extract_patch, FEATURE_VARIANTS};
 use ridgeline_terrain::shard::{BestSet, CandidateRef, ScoredCandidate, UserPatchQuery};
 
-/// A candidate under consideration, before its pixels are extracted.
+/// Width of the filter window above the k-th smallest filter cost (cost units; the
+/// costs of a best-set are typically 0.5 to 5).
+pub const DELTA: f32 = 1e-3;
+
+/// A scored candidate.
 #[derive(Debug, Clone, Copy)]
-struct Hit {
-    cost: f32,
-    feature: f32,
-    angle: f32,
-    cand: CandidateRef,
+pub struct Hit {
+    pub cost: f32,
+    pub feature: f32,
+    pub angle: f32,
+    pub cand: CandidateRef,
 }
 
-fn hit_order(a: &Hit, b: &Hit) -> std::cmp::Ordering {
+/// The total order of best-sets: cost, then candidate identity.
+pub fn hit_order(a: &Hit, b: &Hit) -> std::cmp::Ordering {
     a.cost.total_cmp(&b.cost).then(a.cand.cmp(&b.cand))
 }
 
-/// Keeps the k smallest hits in the total order.
-struct TopK {
+/// The k smallest filter costs seen so far, ascending.
+struct KSmallest {
     k: usize,
-    items: Vec<Hit>,
+    items: Vec<f32>,
 }
 
-impl TopK {
-    fn bound(&self) -> f32 {
+impl KSmallest {
+    fn kth(&self) -> f32 {
         if self.items.len() < self.k {
             f32::INFINITY
         } else {
-            self.items[self.k - 1].cost
+            self.items[self.k - 1]
         }
     }
-    fn push(&mut self, h: Hit) {
-        if self.items.len() == self.k && hit_order(&h, &self.items[self.k - 1]).is_ge() {
+    fn push(&mut self, c: f32) {
+        if self.items.len() == self.k && c >= self.items[self.k - 1] {
             return;
         }
-        let pos = self.items.partition_point(|x| hit_order(x, &h).is_lt());
-        self.items.insert(pos, h);
+        let pos = self.items.partition_point(|x| *x <= c);
+        self.items.insert(pos, c);
         self.items.truncate(self.k);
     }
 }
 
-/// Candidates kept beyond k by the one-pass cost and re-scored in the reference
-/// form ([`normalise_profile`] then [`profile_rms`]) before the k best are taken: the
-/// two forms differ in the last bits, so near-ties at the k-th place could otherwise
-/// swap; with a margin the best-set is the reference form's.
-const RESCORE_MARGIN: usize = 2;
-
-/// Σq and Σq² of a user profile.
-fn profile_sums(q: &[f32]) -> (f64, f64) {
-    q.iter().fold((0.0, 0.0), |(s, s2), &v| (s + v as f64, s2 + v as f64 * v as f64))
+/// The filter threshold for a pair: every candidate whose filter cost is at most this
+/// is kept (all of them when there are fewer than k).
+pub fn window(kth: f32) -> f32 {
+    if kth.is_finite() {
+        kth + DELTA
+    } else {
+        f32::INFINITY
+    }
 }
 
-/// The profile cost of one path in one pass over the gathered samples: the RMS
-/// difference between the user profile `q` and the candidate's samples normalised by
-/// their mean and range (floored at `min_range`), as
-/// `normalise_profile` + `profile_rms` define it, expanded into sums so no
-/// normalised copy is written: with d = x − x₀ (any shift cancels),
-/// Σ((d − m)/R − q)² = (Σd² − nm²)/R² − 2(Σdq − mΣq)/R + Σq².
-/// Sums are in f64, so the expansion loses nothing to cancellation.
-#[inline]
-fn profile_cost(data: &[f32], base: i64, offsets: &[i64], q: &[f32], (sq, sq2): (f64, f64), min_range: f32) -> f32 {
-    let n = offsets.len();
-    if n == 0 {
-        return 0.0;
-    }
-    let x0 = data[(base + offsets[0]) as usize];
-    let (mut s, mut s2, mut sdq) = (0f64, 0f64, 0f64);
-    let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
-    for (&o, &qv) in offsets.iter().zip(q) {
-        let x = data[(base + o) as usize];
-        // candidates never carry voids (`valid_centres`), so plain comparisons do
-        if x < lo {
-            lo = x;
-        }
-        if x > hi {
-            hi = x;
-        }
-        let d = (x - x0) as f64;
-        s += d;
-        s2 += d * d;
-        sdq += d * qv as f64;
-    }
-    let nf = n as f64;
-    let m = s / nf;
-    let r = (hi - lo).max(min_range) as f64;
-    let ss = ((s2 - nf * m * m) / (r * r) - 2.0 * (sdq - m * sq) / r + sq2).max(0.0);
-    (ss / nf).sqrt() as f32
-}
-
-/// Round 1 for one user patch against one source.
-pub fn best_set(src: &Source, q: &UserPatchQuery, k: usize, patch: usize) -> BestSet {
-    let nodes = &src.nodes[match q.kind {
-        FeatureKind::Ridge => 0,
-        FeatureKind::Valley => 1,
-    }];
-    let w = src.heights.width as i64;
-    // flat offsets per variant, per path, per sample
-    let offsets: Vec<Vec<Vec<i64>>> = FEATURE_VARIANTS
+/// The profile sample offsets of a user patch mapped into the source frame by each
+/// variant and rounded to cells: `[variant][path][sample] = [dx, dy]`. Both backends
+/// take their gathers from these, so the cells read never depend on the device.
+pub fn variant_offsets(q: &UserPatchQuery) -> Vec<Vec<Vec<[i32; 2]>>> {
+    FEATURE_VARIANTS
         .iter()
         .map(|v| {
             q.paths
@@ -118,73 +89,129 @@ pub fn best_set(src: &Source, q: &UserPatchQuery, k: usize, patch: usize) -> Bes
                         .iter()
                         .map(|o| {
                             let (sx, sy) = v.inverse(o[0], o[1]);
-                            sy.round() as i64 * w + sx.round() as i64
+                            [sx.round() as i32, sy.round() as i32]
                         })
                         .collect()
                 })
                 .collect()
         })
-        .collect();
-    let mut top = TopK { k: k + RESCORE_MARGIN, items: Vec::with_capacity(k + RESCORE_MARGIN + 1) };
+        .collect()
+}
+
+#[inline]
+fn at(data: &[f32], base: i64, stride: i64, o: [i32; 2]) -> f32 {
+    data[(base + o[1] as i64 * stride + o[0] as i64) as usize]
+}
+
+/// Twin of the shader's `path_cost`: RMS difference between the user profile `q` and
+/// the samples normalised by their mean and range (floored at `min_range`), in f32,
+/// shifted by the first sample so the sums do not cancel.
+pub fn approx_path_cost(data: &[f32], base: i64, stride: i64, offs: &[[i32; 2]], q: &[f32], min_range: f32) -> f32 {
+    let Some(&o0) = offs.first() else { return 0.0 };
+    let x0 = at(data, base, stride, o0);
+    let (mut s, mut lo, mut hi) = (0.0f32, f32::MAX, -f32::MAX);
+    for &o in offs {
+        let x = at(data, base, stride, o);
+        s += x - x0;
+        lo = lo.min(x);
+        hi = hi.max(x);
+    }
+    let m = s / offs.len() as f32;
+    let r = (hi - lo).max(min_range);
+    let mut ss = 0.0f32;
+    for (&o, &qv) in offs.iter().zip(q) {
+        let e = (at(data, base, stride, o) - x0 - m) / r - qv;
+        ss += e * e;
+    }
+    (ss / offs.len() as f32).sqrt()
+}
+
+/// Twin of the shader's `candidate_cost` given the candidate's angle cost.
+pub fn approx_cost(
+    data: &[f32],
+    base: i64,
+    stride: i64,
+    offs: &[Vec<[i32; 2]>],
+    q: &UserPatchQuery,
+    angle: f32,
+    min_range: f32,
+) -> f32 {
+    let mut sum = 0.0f32;
+    for (path, prof) in offs.iter().zip(&q.profiles) {
+        sum += approx_path_cost(data, base, stride, path, prof, min_range);
+    }
+    let cf = if offs.is_empty() { 0.0 } else { sum / offs.len() as f32 };
+    ALPHA_F * cf + ALPHA_A * angle
+}
+
+/// The ranking form of a candidate's cost, computed on the CPU only: f64 sums in
+/// sample order, rounded to f32 once per term.
+pub fn rank_cost(src: &Source, q: &UserPatchQuery, offs: &[Vec<[i32; 2]>], node: (u32, u32), exits: &[f32], vi: usize) -> Hit {
+    let v = FEATURE_VARIANTS[vi];
+    let stride = src.heights.width as i64;
+    let base = node.1 as i64 * stride + node.0 as i64;
     let data = &src.heights.data;
-    let q_sums: Vec<(f64, f64)> = q.profiles.iter().map(|p| profile_sums(p)).collect();
-    for node in nodes {
-        let base = node.y as i64 * w + node.x as i64;
-        // the branch-count mismatch alone bounds the angle cost of every variant
-        if ALPHA_A * branch_mismatch(&q.exit_angles, &node.exit_angles) > top.bound() {
+    let mut sum = 0.0f64;
+    for (path, prof) in offs.iter().zip(&q.profiles) {
+        let n = path.len() as f64;
+        if path.is_empty() {
             continue;
         }
-        for (vi, v) in FEATURE_VARIANTS.iter().enumerate() {
-            let ca = angle_cost_mapped(&q.exit_angles, &node.exit_angles, *v);
-            if ALPHA_A * ca > top.bound() {
-                continue;
-            }
-            // accumulate path by path; stop once the partial cost cannot make the best-set
-            let scale = ALPHA_F / q.paths.len().max(1) as f32;
-            let bound = top.bound();
-            let mut sum = 0.0;
-            let mut pruned = false;
-            for (pi, path_off) in offsets[vi].iter().enumerate() {
-                sum += profile_cost(data, base, path_off, &q.profiles[pi], q_sums[pi], src.min_range);
-                if scale * sum + ALPHA_A * ca > bound {
-                    pruned = true;
-                    break;
-                }
-            }
-            if pruned {
-                continue;
-            }
-            let cf = sum / q.paths.len().max(1) as f32;
-            top.push(Hit {
-                cost: ALPHA_F * cf + ALPHA_A * ca,
-                feature: cf,
-                angle: ca,
-                cand: CandidateRef { source: src.id, y: node.y, x: node.x, variant: *v },
-            });
+        let (mut s, mut lo, mut hi) = (0.0f64, f64::INFINITY, f64::NEG_INFINITY);
+        for &o in path {
+            let x = at(data, base, stride, o) as f64;
+            s += x;
+            lo = lo.min(x);
+            hi = hi.max(x);
         }
+        let m = s / n;
+        let r = (hi - lo).max(src.min_range as f64);
+        let mut ss = 0.0f64;
+        for (&o, &qv) in path.iter().zip(prof) {
+            let e = (at(data, base, stride, o) as f64 - m) / r - qv as f64;
+            ss += e * e;
+        }
+        sum += (ss / n).sqrt();
     }
-    // the reference form for the kept: the same costs, bit for bit, as normalising
-    // each profile and taking its RMS difference
-    let mut kept: Vec<Hit> = top
-        .items
-        .into_iter()
-        .map(|mut h| {
-            let vi = FEATURE_VARIANTS.iter().position(|v| *v == h.cand.variant).unwrap_or(0);
-            let base = h.cand.y as i64 * w + h.cand.x as i64;
-            let mut sum = 0.0f32;
-            for (pi, path_off) in offsets[vi].iter().enumerate() {
-                let mut buf: Vec<f32> = path_off.iter().map(|&o| data[(base + o) as usize]).collect();
-                normalise_profile(&mut buf, src.min_range);
-                sum += profile_rms(&buf, &q.profiles[pi]);
-            }
-            h.feature = sum / q.paths.len().max(1) as f32;
-            h.cost = ALPHA_F * h.feature + ALPHA_A * h.angle;
-            h
+    let feature = if offs.is_empty() { 0.0 } else { (sum / offs.len() as f64) as f32 };
+    let angle = angle_cost_mapped(&q.exit_angles, exits, v);
+    Hit {
+        cost: ALPHA_F * feature + ALPHA_A * angle,
+        feature,
+        angle,
+        cand: CandidateRef { source: src.id, y: node.1, x: node.0, variant: v },
+    }
+}
+
+/// The candidate nodes of `src` a user patch of this kind is matched against.
+pub fn nodes_for(src: &Source, kind: FeatureKind) -> &[crate::candidates::FeatureNode] {
+    &src.nodes[match kind {
+        FeatureKind::Ridge => 0,
+        FeatureKind::Valley => 1,
+    }]
+}
+
+/// Step 2 for one pair: re-scores the kept `(node index, variant)` in the ranking
+/// form and returns the k best with their pixels.
+pub fn finish(
+    src: &Source,
+    q: &UserPatchQuery,
+    offs: &[Vec<Vec<[i32; 2]>>],
+    kept: &[(u32, u8)],
+    k: usize,
+    patch: usize,
+) -> BestSet {
+    let nodes = nodes_for(src, q.kind);
+    let mut hits: Vec<Hit> = kept
+        .iter()
+        .map(|&(n, v)| {
+            let node = &nodes[n as usize];
+            rank_cost(src, q, &offs[v as usize], (node.x, node.y), &node.exit_angles, v as usize)
         })
         .collect();
-    kept.sort_by(hit_order);
-    kept.truncate(k);
-    let entries = kept
+    hits.sort_by(hit_order);
+    hits.truncate(k);
+    let entries = hits
         .into_iter()
         .map(|h| ScoredCandidate {
             cand: h.cand,
@@ -197,46 +224,63 @@ pub fn best_set(src: &Source, q: &UserPatchQuery, k: usize, patch: usize) -> Bes
     BestSet { user_patch: q.id, source: src.id, entries }
 }
 
+/// Round 1 for one user patch against one source on the CPU.
+pub fn best_set(src: &Source, q: &UserPatchQuery, k: usize, patch: usize) -> BestSet {
+    let nodes = nodes_for(src, q.kind);
+    let stride = src.heights.width as i64;
+    let offs = variant_offsets(q);
+    let data = &src.heights.data;
+    let mut smallest = KSmallest { k, items: Vec::with_capacity(k + 1) };
+    // (filter cost, node, variant) of every candidate under the threshold when seen
+    let mut kept: Vec<(f32, u32, u8)> = Vec::new();
+    let scale = ALPHA_F / q.paths.len().max(1) as f32;
+    for (ni, node) in nodes.iter().enumerate() {
+        let base = node.y as i64 * stride + node.x as i64;
+        // the branch-count mismatch alone bounds the angle cost of every variant
+        if ALPHA_A * branch_mismatch(&q.exit_angles, &node.exit_angles) > window(smallest.kth()) {
+            continue;
+        }
+        for (vi, v) in FEATURE_VARIANTS.iter().enumerate() {
+            let ca = angle_cost_mapped(&q.exit_angles, &node.exit_angles, *v);
+            let limit = window(smallest.kth());
+            if ALPHA_A * ca > limit {
+                continue;
+            }
+            // accumulate path by path; stop once the partial cost is over the threshold
+            let mut sum = 0.0f32;
+            let mut over = false;
+            for (path, prof) in offs[vi].iter().zip(&q.profiles) {
+                sum += approx_path_cost(data, base, stride, path, prof, src.min_range);
+                if scale * sum + ALPHA_A * ca > limit {
+                    over = true;
+                    break;
+                }
+            }
+            if over {
+                continue;
+            }
+            let c = approx_cost(data, base, stride, &offs[vi], q, ca, src.min_range);
+            smallest.push(c);
+            kept.push((c, ni as u32, vi as u8));
+            if kept.len() > 8 * (k + 8) {
+                let limit = window(smallest.kth());
+                kept.retain(|h| h.0 <= limit);
+            }
+        }
+    }
+    let limit = window(smallest.kth());
+    let kept: Vec<(u32, u8)> = kept.into_iter().filter(|h| h.0 <= limit).map(|h| (h.1, h.2)).collect();
+    finish(src, q, &offs, &kept, k, patch)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::candidates::FeatureNode;
+    use ridgeline_terrain::grid::Grid;
+    use ridgeline_terrain::patch_geometry::{normalise_profile, ProfilePath};
 
-    /// Every node in every variant scored in the reference form, sorted, the k first.
-    fn brute_force(src: &Source, q: &UserPatchQuery, k: usize) -> Vec<(CandidateRef, u32)> {
-        let w = src.heights.width as f32;
-        let mut all: Vec<Hit> = Vec::new();
-        for node in &src.nodes[0] {
-            for v in FEATURE_VARIANTS {
-                let mapped: Vec<f32> = node.exit_angles.iter().map(|&a| v.map_angle(a)).collect();
-                let ca = ridgeline_terrain::costs::angle_cost(&q.exit_angles, &mapped);
-                let mut sum = 0.0f32;
-                for (pi, path) in q.paths.iter().enumerate() {
-                    let mut buf: Vec<f32> = path
-                        .offsets
-                        .iter()
-                        .map(|o| {
-                            let (sx, sy) = v.inverse(o[0], o[1]);
-                            let i = (node.y as f32 + sy.round()) * w + node.x as f32 + sx.round();
-                            src.heights.data[i as usize]
-                        })
-                        .collect();
-                    normalise_profile(&mut buf, src.min_range);
-                    sum += profile_rms(&buf, &q.profiles[pi]);
-                }
-                let cf = sum / q.paths.len() as f32;
-                let cand = CandidateRef { source: src.id, y: node.y, x: node.x, variant: v };
-                all.push(Hit { cost: ALPHA_F * cf + ALPHA_A * ca, feature: cf, angle: ca, cand });
-            }
-        }
-        all.sort_by(hit_order);
-        all.into_iter().take(k).map(|h| (h.cand, h.cost.to_bits())).collect()
-    }
-
-    #[test]
-    fn pruned_search_returns_the_brute_force_best_set() {
-        use crate::candidates::FeatureNode;
-        use ridgeline_terrain::grid::Grid;
-        use ridgeline_terrain::patch_geometry::ProfilePath;
+    pub(crate) fn synthetic_source(min_range: f32) -> Source {
         let (w, h) = (160usize, 140usize);
         let heights = Grid::from_vec(
             w,
@@ -255,15 +299,18 @@ mod tests {
                 exit_angles: if i % 4 == 0 { vec![0.3, 2.0, -1.9] } else { vec![0.1 * i as f32, 0.1 * i as f32 + 3.0] },
             })
             .collect();
-        let src = Source {
+        Source {
             id: 3,
             name: "synthetic".into(),
             heights,
             nodes: [nodes, Vec::new()],
             featureless: Vec::new(),
-            min_range: 1.0,
+            min_range,
             cache_hit: false,
-        };
+        }
+    }
+
+    pub(crate) fn synthetic_query() -> UserPatchQuery {
         let paths: Vec<ProfilePath> = (0..3)
             .map(|p| ProfilePath {
                 offsets: (-8..=8).map(|t| [t as f32 * 1.7 + p as f32 * 3.0, t as f32 * 0.6 - p as f32 * 5.0]).collect(),
@@ -276,29 +323,57 @@ mod tests {
                 v
             })
             .collect();
-        let q = UserPatchQuery { id: 0, kind: FeatureKind::Ridge, exit_angles: vec![0.5, 3.5], paths, profiles };
-        for k in [1, 5, 12] {
-            let got: Vec<(CandidateRef, u32)> =
-                best_set(&src, &q, k, 16).entries.iter().map(|e| (e.cand, e.cost.to_bits())).collect();
-            assert_eq!(got, brute_force(&src, &q, k), "k = {k}");
+        UserPatchQuery { id: 0, kind: FeatureKind::Ridge, exit_angles: vec![0.5, 3.5], paths, profiles }
+    }
+
+    /// Every node in every variant scored in the ranking form, sorted, the k first.
+    fn brute_force(src: &Source, q: &UserPatchQuery, k: usize) -> Vec<(CandidateRef, u32)> {
+        let offs = variant_offsets(q);
+        let mut all: Vec<Hit> = Vec::new();
+        for node in &src.nodes[0] {
+            for (vi, o) in offs.iter().enumerate() {
+                all.push(rank_cost(src, q, o, (node.x, node.y), &node.exit_angles, vi));
+            }
+        }
+        all.sort_by(hit_order);
+        all.into_iter().take(k).map(|h| (h.cand, h.cost.to_bits())).collect()
+    }
+
+    #[test]
+    fn pruned_search_returns_the_brute_force_best_set() {
+        for min_range in [1.0, 400.0] {
+            let src = synthetic_source(min_range);
+            let q = synthetic_query();
+            for k in [1, 5, 12] {
+                let got: Vec<(CandidateRef, u32)> =
+                    best_set(&src, &q, k, 16).entries.iter().map(|e| (e.cand, e.cost.to_bits())).collect();
+                assert_eq!(got, brute_force(&src, &q, k), "k = {k}, min_range {min_range}");
+            }
         }
     }
 
     #[test]
-    fn one_pass_profile_cost_equals_normalise_then_rms() {
-        // heights in feet far from zero (cancellation would show), flat and steep paths
-        let data: Vec<f32> = (0..400).map(|i| 9000.0 + ((i * 37) % 101) as f32 * 3.7 - (i / 20) as f32 * 11.0).collect();
-        let flat = vec![7000.0f32; 400];
-        let mut q: Vec<f32> = (0..9).map(|i| ((i as f32) * 0.9).sin()).collect();
-        normalise_profile(&mut q, 0.05);
-        for (src, min_range) in [(&data, 1.0f32), (&data, 500.0), (&flat, 1.0)] {
-            for offsets in [vec![0i64, 21, 42, 63, 84, 105, 126, 147, 168], vec![5i64, 4, 3, 2, 1, 0, 20, 40, 60]] {
-                let mut v: Vec<f32> = offsets.iter().map(|&o| src[(100 + o) as usize]).collect();
-                normalise_profile(&mut v, min_range);
-                let want = profile_rms(&v, &q);
-                let got = profile_cost(src, 100, &offsets, &q, profile_sums(&q), min_range);
-                assert!((got - want).abs() <= 1e-5 * want.max(1.0), "{got} vs {want}");
+    fn filter_cost_stays_far_inside_the_window_of_the_ranking_cost() {
+        // heights far from zero (cancellation would show), a flat source, a large floor
+        let q = synthetic_query();
+        let offs = variant_offsets(&q);
+        let mut worst = 0.0f32;
+        for (flat, min_range) in [(false, 1.0f32), (false, 500.0), (true, 1.0)] {
+            let mut src = synthetic_source(min_range);
+            if flat {
+                src.heights.data.iter_mut().for_each(|v| *v = 7000.0);
+            }
+            let stride = src.heights.width as i64;
+            for node in &src.nodes[0] {
+                for (vi, v) in FEATURE_VARIANTS.iter().enumerate() {
+                    let exact = rank_cost(&src, &q, &offs[vi], (node.x, node.y), &node.exit_angles, vi);
+                    let ca = angle_cost_mapped(&q.exit_angles, &node.exit_angles, *v);
+                    let base = node.y as i64 * stride + node.x as i64;
+                    let approx = approx_cost(&src.heights.data, base, stride, &offs[vi], &q, ca, min_range);
+                    worst = worst.max((approx - exact.cost).abs());
+                }
             }
         }
+        assert!(worst < DELTA / 10.0, "filter error {worst} against a window of {DELTA}");
     }
 }

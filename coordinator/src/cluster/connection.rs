@@ -48,6 +48,8 @@ pub struct Cluster {
     channels: Vec<Mutex<Option<Channel>>>,
     pub(crate) alive: Vec<AtomicBool>,
     pub stats: TransferStats,
+    /// What each worker said it scores on when it connected (`None`: unreachable).
+    capabilities: Mutex<Vec<Option<v1::CapabilitiesReply>>>,
 }
 
 pub(crate) fn retryable(s: &Status) -> bool {
@@ -83,6 +85,7 @@ impl Cluster {
             channels: (0..n).map(|_| Mutex::new(None)).collect(),
             alive: (0..n).map(|_| AtomicBool::new(true)).collect(),
             stats: TransferStats::default(),
+            capabilities: Mutex::new(vec![None; n]),
         });
         let mut why = Vec::new();
         for w in 0..n {
@@ -98,7 +101,10 @@ impl Cluster {
             });
             match res {
                 Ok(cap) => {
-                    tracing::info!(worker = %cluster.cfg.workers[w], backend = %cap.backend, threads = cap.threads, memory = cap.memory_bytes, "worker ready");
+                    tracing::info!(worker = %cluster.cfg.workers[w], backend = %cap.backend, adapter = %cap.adapter, threads = cap.threads, memory = cap.memory_bytes, "worker ready");
+                    if let Ok(mut c) = cluster.capabilities.lock() {
+                        c[w] = Some(cap.clone());
+                    }
                     if cap.protocol_version != ridgeline_proto::PROTOCOL_VERSION {
                         cluster.alive[w].store(false, Ordering::SeqCst);
                         why.push(format!("{}: protocol version {}", cluster.cfg.workers[w], cap.protocol_version));
@@ -115,6 +121,11 @@ impl Cluster {
             return Err(ClusterError::NoLiveWorker(why.join("; ")));
         }
         Ok(cluster)
+    }
+
+    /// What each worker said it scores on when it connected, in worker order.
+    pub fn capabilities(&self) -> Vec<Option<v1::CapabilitiesReply>> {
+        self.capabilities.lock().map(|c| c.clone()).unwrap_or_default()
     }
 
     /// Indices of the workers still alive.

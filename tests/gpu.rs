@@ -1,0 +1,47 @@
+//! The GPU backend end to end: a whole job gives the same bytes on the CPU backend, on
+//! the GPU backend (in CI: Mesa's lavapipe) and on a fleet of one GPU and one CPU
+//! worker. Skips, saying so, where no Vulkan adapter can be had at all.
+
+use ridgeline::cluster::{Cluster, ClusterConfig};
+use ridgeline::pipeline::{run_job, SynthConfig};
+use ridgeline_terrain::io::encode_tiff_f32;
+use ridgeline_tests::{shared_data, temp_dir, WorkerProc};
+use ridgeline_worker::gpu::{GpuContext, GpuError, GpuMode};
+
+fn job(data: &std::path::Path, cache: &std::path::Path, gpu: GpuMode, cluster: Option<std::sync::Arc<Cluster>>) -> Vec<u8> {
+    let cfg = SynthConfig { gpu, cluster, cache_dir: Some(cache.to_path_buf()), ..Default::default() };
+    let out = run_job(&data.join("sketches/small-range-512.png"), &data.join("dems"), &cfg).expect("job");
+    encode_tiff_f32(out.terrain()).unwrap()
+}
+
+#[test]
+fn same_bytes_on_the_cpu_on_the_gpu_and_on_a_mixed_fleet() {
+    let Some(data) = shared_data() else { return };
+    if let Err(GpuError::NoAdapter) = GpuContext::open(GpuMode::Software) {
+        eprintln!("SKIPPED: no Vulkan adapter (install mesa-vulkan-drivers and libvulkan1 for lavapipe)");
+        return;
+    }
+    let d = temp_dir("gpu");
+    let cache = d.join("cache");
+    let cpu = job(&data, &cache, GpuMode::Off, None);
+    let gpu = job(&data, &cache, GpuMode::Software, None);
+    assert!(gpu == cpu, "the GPU backend's terrain differs from the CPU backend's");
+
+    let token = "gpu-test";
+    let w_gpu = WorkerProc::start_with(&d.join("w0"), Some(token), &["--gpu", "software"]);
+    let w_cpu = WorkerProc::start_with(&d.join("w1"), Some(token), &["--gpu", "off"]);
+    let cluster = Cluster::connect(ClusterConfig {
+        workers: vec![w_gpu.url.clone(), w_cpu.url.clone()],
+        token: Some(token.into()),
+        ..Default::default()
+    })
+    .expect("connect");
+    let caps = cluster.capabilities();
+    let backends: Vec<(String, String)> = caps.iter().flatten().map(|c| (c.backend.clone(), c.adapter.clone())).collect();
+    assert_eq!(backends.len(), 2);
+    assert_eq!(backends[0].0, "gpu", "{backends:?}");
+    assert_eq!(backends[1].0, "cpu", "{backends:?}");
+    assert!(!backends[0].1.is_empty());
+    let fleet = job(&data, &cache, GpuMode::Off, Some(cluster));
+    assert!(fleet == cpu, "a fleet of a GPU and a CPU worker gives other bytes than one process");
+}

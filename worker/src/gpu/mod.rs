@@ -1,0 +1,291 @@
+//! The worker's GPU: which adapter to use (`--gpu auto|on|off|software`), the device
+//! opened once per process and shared by every shard, and the compiled kernels of
+//! `shaders/`. Kernels run through wgpu on Vulkan; Mesa's lavapipe (a Vulkan driver
+//! on the CPU) is used only when asked for (`software`), which is how CI proves the
+//! kernels' parity without a GPU.
+//!
+//! Each kernel's host side lives beside it (`round1.rs` for `shaders/round1.wgsl`) and
+//! its CPU twin is the CPU backend's module (`patch_matching.rs`).
+
+pub mod fill;
+pub mod round1;
+
+use std::sync::Arc;
+
+/// Which scoring backend to use.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum GpuMode {
+    /// A real GPU if one is present, else the CPU.
+    #[default]
+    Auto,
+    /// A real GPU; fail clearly without one.
+    On,
+    /// The CPU backend (rayon).
+    Off,
+    /// Any Vulkan adapter, a software one (lavapipe) included: for parity tests.
+    Software,
+}
+
+impl std::str::FromStr for GpuMode {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "auto" => Ok(GpuMode::Auto),
+            "on" => Ok(GpuMode::On),
+            "off" => Ok(GpuMode::Off),
+            "software" => Ok(GpuMode::Software),
+            _ => Err(format!("'{s}' is not a GPU mode (auto, on, off or software)")),
+        }
+    }
+}
+
+/// Why no GPU backend could be set up.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    #[error("--gpu on: no GPU adapter found (Vulkan adapters seen: {0}); use --gpu auto or off to score on the CPU")]
+    NoGpu(String),
+    #[error("--gpu software: no Vulkan adapter at all (install mesa-vulkan-drivers and libvulkan1 for lavapipe)")]
+    NoAdapter,
+    #[error("GPU {adapter}: {what}")]
+    Device { adapter: String, what: String },
+}
+
+/// What a worker scores on, for its capabilities, logs and the job report.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct BackendInfo {
+    /// "cpu" or "gpu".
+    pub backend: &'static str,
+    /// Adapter name and driver, or the CPU's thread count.
+    pub adapter: String,
+    /// Largest single buffer the device accepts (bytes); 0 on the CPU. wgpu does not
+    /// expose the device's memory size; this bounds how large a shard can be resident.
+    pub max_buffer_bytes: u64,
+}
+
+impl BackendInfo {
+    pub fn cpu() -> Self {
+        BackendInfo { backend: "cpu", adapter: format!("rayon, {} threads", rayon::current_num_threads()), max_buffer_bytes: 0 }
+    }
+}
+
+/// An open device with its compiled kernels.
+pub struct GpuContext {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub info: BackendInfo,
+    pub(crate) round1: wgpu::ComputePipeline,
+    pub(crate) fill: wgpu::ComputePipeline,
+    limits: wgpu::Limits,
+}
+
+impl std::fmt::Debug for GpuContext {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("GpuContext").field("info", &self.info).finish()
+    }
+}
+
+/// Hit-list length per query; more hits send the query to the CPU.
+pub(crate) const CAP: usize = 64;
+
+/// The hit lists of `groups` queries: `None` where a list overflowed.
+pub(crate) fn hit_lists(words: &[u32], groups: usize) -> Vec<Option<&[u32]>> {
+    (0..groups)
+        .map(|g| {
+            let at = g * (CAP + 1);
+            let count = words[at] as usize;
+            (count <= CAP).then(|| &words[at + 1..at + 1 + count])
+        })
+        .collect()
+}
+
+/// Workgroups per dispatch: the kernels index queries by `workgroup_id.x` alone.
+pub(crate) const MAX_GROUPS: usize = 65_535;
+
+fn is_real_gpu(t: wgpu::DeviceType) -> bool {
+    matches!(t, wgpu::DeviceType::DiscreteGpu | wgpu::DeviceType::IntegratedGpu | wgpu::DeviceType::VirtualGpu)
+}
+
+impl GpuContext {
+    /// Opens the adapter `mode` asks for: `Ok(None)` means score on the CPU (mode off,
+    /// or auto without a GPU).
+    pub fn open(mode: GpuMode) -> Result<Option<Arc<GpuContext>>, GpuError> {
+        if mode == GpuMode::Off {
+            return Ok(None);
+        }
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
+            backends: wgpu::Backends::VULKAN,
+            ..wgpu::InstanceDescriptor::new_without_display_handle()
+        });
+        let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN));
+        let rank = |a: &wgpu::Adapter| match a.get_info().device_type {
+            wgpu::DeviceType::DiscreteGpu => 0,
+            t if is_real_gpu(t) => 1,
+            _ => 2,
+        };
+        let chosen = adapters
+            .iter()
+            .filter(|a| mode == GpuMode::Software || is_real_gpu(a.get_info().device_type))
+            .min_by_key(|a| rank(a));
+        let Some(adapter) = chosen else {
+            let seen: Vec<String> =
+                adapters.iter().map(|a| format!("{} ({:?})", a.get_info().name, a.get_info().device_type)).collect();
+            return match mode {
+                GpuMode::On => Err(GpuError::NoGpu(if seen.is_empty() { "none".into() } else { seen.join(", ") })),
+                GpuMode::Software => Err(GpuError::NoAdapter),
+                _ => {
+                    tracing::info!(adapters = %seen.join(", "), "no GPU found; scoring on the CPU");
+                    Ok(None)
+                }
+            };
+        };
+        let ai = adapter.get_info();
+        let name = format!("{} ({:?}, {} {})", ai.name, ai.device_type, ai.driver, ai.driver_info).replace(" )", ")");
+        let limits = adapter.limits();
+        let dev_err = |what: String| GpuError::Device { adapter: name.clone(), what };
+        if limits.max_storage_buffers_per_shader_stage < 11 {
+            return Err(dev_err(format!(
+                "allows {} storage buffers per kernel; the kernels need 11",
+                limits.max_storage_buffers_per_shader_stage
+            )));
+        }
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("ridgeline worker"),
+            required_limits: limits.clone(),
+            ..Default::default()
+        }))
+        .map_err(|e| dev_err(e.to_string()))?;
+        // errors are caught per call by error scopes (`checked`); anything else is
+        // logged, never a panic
+        device.on_uncaptured_error(Arc::new(|e| tracing::error!(error = %e, "GPU error")));
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let kernel = |name: &str, source: &str| {
+            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(name),
+                source: wgpu::ShaderSource::Wgsl([source, include_str!("../../../shaders/window.wgsl")].concat().into()),
+            });
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(name),
+                layout: None,
+                module: &module,
+                entry_point: Some("main"),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        };
+        let round1 = kernel("round1.wgsl", include_str!("../../../shaders/round1.wgsl"));
+        let fill = kernel("fill.wgsl", include_str!("../../../shaders/fill.wgsl"));
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(dev_err(format!("the kernels do not compile: {e}")));
+        }
+        let info = BackendInfo { backend: "gpu", adapter: name, max_buffer_bytes: limits.max_buffer_size };
+        tracing::info!(adapter = %info.adapter, max_buffer_bytes = info.max_buffer_bytes, "GPU backend ready");
+        Ok(Some(Arc::new(GpuContext { device, queue, info, round1, fill, limits })))
+    }
+
+    /// Runs `f` with validation and out-of-memory errors of the device caught and
+    /// returned instead of logged.
+    pub(crate) fn checked<T>(&self, f: impl FnOnce() -> Result<T, String>) -> Result<T, String> {
+        let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let invalid = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let out = f();
+        let e1 = pollster::block_on(invalid.pop());
+        let e2 = pollster::block_on(oom.pop());
+        match (e1.or(e2), out) {
+            (Some(e), _) => Err(e.to_string()),
+            (None, out) => out,
+        }
+    }
+
+    /// Largest storage buffer a kernel can bind, in bytes.
+    pub(crate) fn max_binding(&self) -> u64 {
+        self.limits.max_storage_buffer_binding_size.min(self.limits.max_buffer_size)
+    }
+
+    /// A storage buffer holding `data` (at least 4 bytes: empty arrays cannot be bound).
+    pub(crate) fn storage<T: bytemuck::Pod>(&self, label: &str, data: &[T]) -> wgpu::Buffer {
+        use wgpu::util::DeviceExt;
+        let bytes: &[u8] = bytemuck::cast_slice(data);
+        let pad = [0u8; 4];
+        self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: if bytes.is_empty() { &pad } else { bytes },
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        })
+    }
+
+    /// Runs `pipeline` with `buffers` bound at 0, 1, … and `groups` workgroups, then
+    /// reads back the `hits` buffer (`groups` lists of [`CAP`] + 1 words) and, when
+    /// asked, the `costs` buffer (`n_costs` floats): the two last of `buffers`.
+    pub(crate) fn dispatch(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        buffers: &[&wgpu::Buffer],
+        groups: usize,
+        n_costs: Option<usize>,
+    ) -> Result<(Vec<u32>, Option<Vec<f32>>), String> {
+        let layout = pipeline.get_bind_group_layout(0);
+        let entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .enumerate()
+            .map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() })
+            .collect();
+        let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout: &layout, entries: &entries });
+        let mut encoder = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: None, timestamp_writes: None });
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, &group, &[]);
+            pass.dispatch_workgroups(groups as u32, 1, 1);
+        }
+        let (costs, hits) = (buffers[buffers.len() - 2], buffers[buffers.len() - 1]);
+        let hit_words = self.read_back::<u32>(encoder, hits, groups * (CAP + 1))?;
+        let cost_list = match n_costs {
+            Some(n) => {
+                let encoder = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+                Some(self.read_back::<f32>(encoder, costs, n)?)
+            }
+            None => None,
+        };
+        Ok((hit_words, cost_list))
+    }
+
+    /// A uniform buffer holding `value`.
+    pub(crate) fn uniform<T: bytemuck::Pod>(&self, label: &str, value: &T) -> wgpu::Buffer {
+        use wgpu::util::DeviceExt;
+        self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: bytemuck::bytes_of(value),
+            usage: wgpu::BufferUsages::UNIFORM,
+        })
+    }
+
+    /// Copies `buffer` back to the host after the submitted work finishes.
+    pub(crate) fn read_back<T: bytemuck::Pod>(
+        &self,
+        encoder: wgpu::CommandEncoder,
+        buffer: &wgpu::Buffer,
+        len: usize,
+    ) -> Result<Vec<T>, String> {
+        let size = (len * std::mem::size_of::<T>()).max(4) as u64;
+        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("read back"),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut encoder = encoder;
+        encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
+        self.queue.submit(Some(encoder.finish()));
+        let (tx, rx) = std::sync::mpsc::channel();
+        staging.slice(..).map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| e.to_string())?;
+        rx.recv().map_err(|e| e.to_string())?.map_err(|e| e.to_string())?;
+        let view = staging.slice(..).get_mapped_range().map_err(|e| e.to_string())?;
+        let out: Vec<T> = bytemuck::cast_slice(&view[..len * std::mem::size_of::<T>()]).to_vec();
+        drop(view);
+        staging.unmap();
+        Ok(out)
+    }
+}
