@@ -1,11 +1,16 @@
 //! Kernel benchmark: the two scoring kernels a worker runs, on their own, on the CPU
-//! backend (rayon over all cores): round 1 (`ShardScorer::score_block`, every user
+//! backend (rayon over all cores) and, where a Vulkan adapter is found, on the GPU
+//! backend (`RIDGELINE_BENCH_GPU`: auto (default: a real GPU only), software (lavapipe
+//! too) or off): round 1 (`ShardScorer::score_block`, every user
 //! patch of a sketch against every feature candidate in its 10 variants) and fill
 //! scoring (`ShardScorer::score_fill`, windows half known against every featureless
 //! candidate in its 6 variants). Prints the median wall time, candidate-variant scores
 //! per second and the bytes the kernel reads per second (gathered heights and
 //! candidate pixels, 4 bytes each; round 1 counts every profile sample of every
-//! candidate-variant, an upper bound since pruning stops some early).
+//! candidate-variant, an upper bound on the CPU since pruning stops some early; the GPU
+//! kernels read every sample twice, so their figure is twice the samples' bytes). The
+//! GPU figures include the CPU re-scoring of the hits and the transfers: they are what
+//! a worker delivers, not the kernel alone.
 //!
 //! `cargo bench -p ridgeline --bench kernels` (RIDGELINE_BENCH_RUNS, default 3;
 //! RIDGELINE_BENCH_SKETCH, default mixed-1024).
@@ -20,7 +25,7 @@ use ridgeline_terrain::library::{common_cell_size, scan_library};
 use ridgeline_terrain::patch_geometry::{FEATURELESS_VARIANTS, FEATURE_VARIANTS};
 use ridgeline_terrain::shard::{FillQuery, ShardScorer};
 use ridgeline_terrain::FeatureKind;
-use ridgeline_worker::{FeatureCache, InProcessShard, ShardConfig};
+use ridgeline_worker::{FeatureCache, GpuContext, GpuMode, InProcessShard, ShardConfig};
 use std::time::Instant;
 
 const PATCH: usize = 64;
@@ -42,39 +47,27 @@ fn main() {
     let ups = user_patches(&analyse(&sketch, PATCH), PATCH);
     let queries: Vec<_> = ups.iter().map(|u| u.query.clone()).collect();
     println!(
-        "ridgeline kernel benchmark (CPU backend, {} threads): {} sources, {} user patches of {sketch_name}, median of {n_runs}",
-        rayon::current_num_threads(),
+        "ridgeline kernel benchmark: {} sources, {} user patches of {sketch_name}, median of {n_runs}",
         sources.len(),
         queries.len()
     );
-
-    // round 1
-    let (mut variants, mut samples) = (0u64, 0u64);
-    for q in &queries {
-        let kind = if q.kind == FeatureKind::Ridge { 0 } else { 1 };
-        let nodes: u64 = sources.iter().map(|s| s.nodes[kind].len() as u64).sum();
-        let per: u64 = q.paths.iter().map(|p| p.offsets.len() as u64).sum();
-        variants += nodes * FEATURE_VARIANTS.len() as u64;
-        samples += nodes * FEATURE_VARIANTS.len() as u64 * per;
-    }
-    let mut times = Vec::new();
-    for _ in 0..n_runs {
-        let t = Instant::now();
-        for block in queries.chunks(BLOCK) {
-            shard.score_block(block, K).expect("round 1");
+    let targets = fill_targets(sources);
+    bench(&shard, &queries, &targets, n_runs);
+    let mode: GpuMode =
+        std::env::var("RIDGELINE_BENCH_GPU").unwrap_or_else(|_| "auto".into()).parse().expect("RIDGELINE_BENCH_GPU");
+    match GpuContext::open(mode) {
+        Ok(Some(ctx)) => {
+            let gpu = InProcessShard::load(&items, &ShardConfig { gpu: Some(ctx), ..cfg.clone() });
+            bench(&gpu, &queries, &targets, n_runs);
         }
-        times.push(t.elapsed().as_secs_f64());
+        Ok(None) => println!("GPU backend: no GPU found (RIDGELINE_BENCH_GPU=software runs it on lavapipe)"),
+        Err(e) => println!("GPU backend: {e}"),
     }
-    let t1 = median(&mut times);
-    println!(
-        "  round 1      {t1:>8.3} s  {:>7.1} M candidate-variants/s  {:>6.2} GB/s read (≤ {:.1} GB)",
-        variants as f64 / t1 / 1e6,
-        samples as f64 * 4.0 / t1 / 1e9,
-        samples as f64 * 4.0 / 1e9
-    );
+}
 
-    // fill scoring: windows of the sources with their left 60% known, every third cell sampled
-    let targets: Vec<FillQuery> = (0..256u32)
+/// Windows of the sources with their left 60% known, every third cell sampled.
+fn fill_targets(sources: &[ridgeline_worker::Source]) -> Vec<FillQuery> {
+    (0..256u32)
         .map(|i| {
             let s = &sources[i as usize % sources.len()];
             let (w, h) = (s.heights.width, s.heights.height);
@@ -93,10 +86,42 @@ fn main() {
             let relief = ridgeline_terrain::costs::finite_std(&full).max(1.0);
             FillQuery { id: i, samples, relief, noise: noise_variances(&full, PATCH), coherence: Vec::new(), avoid: Vec::new() }
         })
-        .collect();
+        .collect()
+}
+
+fn bench(shard: &InProcessShard, queries: &[ridgeline_terrain::shard::UserPatchQuery], targets: &[FillQuery], n_runs: usize) {
+    let sources = shard.source_data();
+    let info = shard.backend().info();
+    let passes = if info.backend == "gpu" { 2.0 } else { 1.0 };
+    println!("{} backend: {}", info.backend, info.adapter);
+    // round 1
+    let (mut variants, mut samples) = (0u64, 0u64);
+    for q in queries {
+        let kind = if q.kind == FeatureKind::Ridge { 0 } else { 1 };
+        let nodes: u64 = sources.iter().map(|s| s.nodes[kind].len() as u64).sum();
+        let per: u64 = q.paths.iter().map(|p| p.offsets.len() as u64).sum();
+        variants += nodes * FEATURE_VARIANTS.len() as u64;
+        samples += nodes * FEATURE_VARIANTS.len() as u64 * per;
+    }
+    let mut times = Vec::new();
+    for _ in 0..n_runs {
+        let t = Instant::now();
+        for block in queries.chunks(BLOCK) {
+            shard.score_block(block, K).expect("round 1");
+        }
+        times.push(t.elapsed().as_secs_f64());
+    }
+    let t1 = median(&mut times);
+    println!(
+        "  round 1      {t1:>8.3} s  {:>7.1} M candidate-variants/s  {:>6.2} GB/s read (≤ {:.1} GB)",
+        variants as f64 / t1 / 1e6,
+        passes * samples as f64 * 4.0 / t1 / 1e9,
+        passes * samples as f64 * 4.0 / 1e9
+    );
+
     let featureless: u64 = sources.iter().map(|s| s.featureless.len() as u64).sum();
     let fill_variants = featureless * FEATURELESS_VARIANTS.len() as u64 * targets.len() as u64;
-    let fill_bytes: u64 = targets.iter().map(|t| t.samples.len() as u64).sum::<u64>() * featureless * 6 * 4;
+    let fill_bytes = passes * (targets.iter().map(|t| t.samples.len() as u64).sum::<u64>() * featureless * 6 * 4) as f64;
     let mut times = Vec::new();
     for _ in 0..n_runs {
         let t = Instant::now();
@@ -109,7 +134,7 @@ fn main() {
     println!(
         "  fill scoring {tf:>8.3} s  {:>7.1} M candidate-variants/s  {:>6.2} GB/s read ({} targets x {} candidates x 6)",
         fill_variants as f64 / tf / 1e6,
-        fill_bytes as f64 / tf / 1e9,
+        fill_bytes / tf / 1e9,
         targets.len(),
         featureless
     );
