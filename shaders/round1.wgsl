@@ -127,26 +127,27 @@ fn path_cost(path: Path, n: Node, v: u32, min_range: f32) -> f32 {
     let first = path.sample_start;
     let o0 = offsets[v * params.samples + first];
     let x0 = heights[u32(i32(n.base) + o0.y * stride + o0.x)];
-    var s = 0.0;
+    // sums in 4 lanes (sample i into lane i % 4), added as (l0 + l1) + (l2 + l3)
+    var s = vec4<f32>(0.0);
     var lo = BIG;
     var hi = -BIG;
     for (var i = 0u; i < count; i++) {
         let o = offsets[v * params.samples + first + i];
         let x = heights[u32(i32(n.base) + o.y * stride + o.x)];
-        s += x - x0;
+        s[i & 3u] += x - x0;
         lo = min(lo, x);
         hi = max(hi, x);
     }
-    let m = s / f32(count);
-    let r = max(hi - lo, min_range);
-    var ss = 0.0;
+    let m = ((s.x + s.y) + (s.z + s.w)) / f32(count);
+    let inv_r = 1.0 / max(hi - lo, min_range);
+    var ss = vec4<f32>(0.0);
     for (var i = 0u; i < count; i++) {
         let o = offsets[v * params.samples + first + i];
         let x = heights[u32(i32(n.base) + o.y * stride + o.x)];
-        let e = (x - x0 - m) / r - profile[first + i];
-        ss += e * e;
+        let e = (x - x0 - m) * inv_r - profile[first + i];
+        ss[i & 3u] += e * e;
     }
-    return sqrt(ss / f32(count));
+    return sqrt(((ss.x + ss.y) + (ss.z + ss.w)) / f32(count));
 }
 
 fn candidate_cost(pair: Pair, i: u32) -> f32 {

@@ -57,8 +57,11 @@ pub fn on_every_shard<T: Send>(
                 let (span, call) = (span.clone(), &call);
                 s.spawn(move || {
                     let _g = span.enter();
-                    let _w = tracing::debug_span!("worker_call", shard = i).entered();
-                    pool.install(|| call(shard.as_ref()))
+                    let _w = tracing::debug_span!("worker_call", shard = i, backend = %shard.backend()).entered();
+                    let t = std::time::Instant::now();
+                    let out = pool.install(|| call(shard.as_ref()));
+                    tracing::debug!(seconds = t.elapsed().as_secs_f64(), "shard answered");
+                    out
                 })
             })
             .collect();

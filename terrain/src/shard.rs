@@ -148,6 +148,10 @@ pub trait ShardScorer: Send + Sync {
     fn skipped(&self) -> Vec<SkippedExemplar> {
         Vec::new()
     }
+    /// What it scores on, for logs: "cpu", "gpu: {adapter}", or the worker serving it.
+    fn backend(&self) -> String {
+        "cpu".into()
+    }
     /// Round 1 for a block of user patches: for every user patch and every source of
     /// the shard, the `k` best candidates in the total order.
     fn score_block(&self, block: &[UserPatchQuery], k: usize) -> Result<Vec<BestSet>, ShardError>;

@@ -127,6 +127,14 @@ impl ShardScorer for InProcessShard {
         self.skipped.clone()
     }
 
+    fn backend(&self) -> String {
+        let info = self.backend.info();
+        match info.backend {
+            "gpu" => format!("gpu: {}", info.adapter),
+            b => b.to_string(),
+        }
+    }
+
     fn score_block(&self, block: &[UserPatchQuery], k: usize) -> Result<Vec<BestSet>, ShardError> {
         if k == 0 {
             return Err(ShardError::BadRequest("k must be at least 1".into()));

@@ -105,42 +105,64 @@ fn at(data: &[f32], base: i64, stride: i64, o: [i32; 2]) -> f32 {
 
 /// Twin of the shader's `path_cost`: RMS difference between the user profile `q` and
 /// the samples normalised by their mean and range (floored at `min_range`), in f32,
-/// shifted by the first sample so the sums do not cancel.
-pub fn approx_path_cost(data: &[f32], base: i64, stride: i64, offs: &[[i32; 2]], q: &[f32], min_range: f32) -> f32 {
-    let Some(&o0) = offs.first() else { return 0.0 };
-    let x0 = at(data, base, stride, o0);
-    let (mut s, mut lo, mut hi) = (0.0f32, f32::MAX, -f32::MAX);
-    for &o in offs {
-        let x = at(data, base, stride, o);
-        s += x - x0;
-        lo = lo.min(x);
-        hi = hi.max(x);
+/// shifted by the first sample so the sums do not cancel. `flat` holds the samples'
+/// offsets from the centre `base` as flat indices (the shader's `o.y * stride + o.x`);
+/// the arithmetic is the shader's, operation by operation.
+pub fn approx_path_cost(data: &[f32], base: i64, flat: &[i64], q: &[f32], min_range: f32) -> f32 {
+    let Some(&f0) = flat.first() else { return 0.0 };
+    let x = |o: i64| data[(base + o) as usize];
+    let x0 = x(f0);
+    // sums in 4 lanes (sample i into lane i % 4), added as (l0 + l1) + (l2 + l3): four
+    // independent chains in registers here, the shader's vec4 accumulators there
+    let (mut s, mut lo, mut hi) = ([0.0f32; 4], f32::MAX, -f32::MAX);
+    let chunks = flat.chunks_exact(4);
+    let rest = chunks.remainder();
+    for c in chunks {
+        let v = [x(c[0]), x(c[1]), x(c[2]), x(c[3])];
+        for l in 0..4 {
+            s[l] += v[l] - x0;
+            lo = lo.min(v[l]);
+            hi = hi.max(v[l]);
+        }
     }
-    let m = s / offs.len() as f32;
-    let r = (hi - lo).max(min_range);
-    let mut ss = 0.0f32;
-    for (&o, &qv) in offs.iter().zip(q) {
-        let e = (at(data, base, stride, o) - x0 - m) / r - qv;
-        ss += e * e;
+    for (l, &o) in rest.iter().enumerate() {
+        let v = x(o);
+        s[l] += v - x0;
+        lo = lo.min(v);
+        hi = hi.max(v);
     }
-    (ss / offs.len() as f32).sqrt()
+    let n = flat.len() as f32;
+    let m = ((s[0] + s[1]) + (s[2] + s[3])) / n;
+    let inv_r = 1.0 / (hi - lo).max(min_range);
+    let mut ss = [0.0f32; 4];
+    let (chunks, qc) = (flat.chunks_exact(4), q.chunks_exact(4));
+    let (rest, qrest) = (chunks.remainder(), qc.remainder());
+    for (c, qv) in chunks.zip(qc) {
+        for l in 0..4 {
+            let e = (x(c[l]) - x0 - m) * inv_r - qv[l];
+            ss[l] += e * e;
+        }
+    }
+    for (l, (&o, &qv)) in rest.iter().zip(qrest).enumerate() {
+        let e = (x(o) - x0 - m) * inv_r - qv;
+        ss[l] += e * e;
+    }
+    (((ss[0] + ss[1]) + (ss[2] + ss[3])) / n).sqrt()
 }
 
-/// Twin of the shader's `candidate_cost` given the candidate's angle cost.
-pub fn approx_cost(
-    data: &[f32],
-    base: i64,
-    stride: i64,
-    offs: &[Vec<[i32; 2]>],
-    q: &UserPatchQuery,
-    angle: f32,
-    min_range: f32,
-) -> f32 {
+/// Flat sample offsets of `variant_offsets` for a source of row length `stride`.
+pub fn flat_offsets(offs: &[Vec<Vec<[i32; 2]>>], stride: i64) -> Vec<Vec<Vec<i64>>> {
+    offs.iter().map(|v| v.iter().map(|p| p.iter().map(|o| o[1] as i64 * stride + o[0] as i64).collect()).collect()).collect()
+}
+
+/// Twin of the shader's `candidate_cost` given the candidate's angle cost and the
+/// flat offsets of its variant.
+pub fn approx_cost(data: &[f32], base: i64, flat: &[Vec<i64>], q: &UserPatchQuery, angle: f32, min_range: f32) -> f32 {
     let mut sum = 0.0f32;
-    for (path, prof) in offs.iter().zip(&q.profiles) {
-        sum += approx_path_cost(data, base, stride, path, prof, min_range);
+    for (path, prof) in flat.iter().zip(&q.profiles) {
+        sum += approx_path_cost(data, base, path, prof, min_range);
     }
-    let cf = if offs.is_empty() { 0.0 } else { sum / offs.len() as f32 };
+    let cf = if flat.is_empty() { 0.0 } else { sum / flat.len() as f32 };
     ALPHA_F * cf + ALPHA_A * angle
 }
 
@@ -229,6 +251,7 @@ pub fn best_set(src: &Source, q: &UserPatchQuery, k: usize, patch: usize) -> Bes
     let nodes = nodes_for(src, q.kind);
     let stride = src.heights.width as i64;
     let offs = variant_offsets(q);
+    let flat = flat_offsets(&offs, stride);
     let data = &src.heights.data;
     let mut smallest = KSmallest { k, items: Vec::with_capacity(k + 1) };
     // (filter cost, node, variant) of every candidate under the threshold when seen
@@ -249,8 +272,8 @@ pub fn best_set(src: &Source, q: &UserPatchQuery, k: usize, patch: usize) -> Bes
             // accumulate path by path; stop once the partial cost is over the threshold
             let mut sum = 0.0f32;
             let mut over = false;
-            for (path, prof) in offs[vi].iter().zip(&q.profiles) {
-                sum += approx_path_cost(data, base, stride, path, prof, src.min_range);
+            for (path, prof) in flat[vi].iter().zip(&q.profiles) {
+                sum += approx_path_cost(data, base, path, prof, src.min_range);
                 if scale * sum + ALPHA_A * ca > limit {
                     over = true;
                     break;
@@ -259,7 +282,7 @@ pub fn best_set(src: &Source, q: &UserPatchQuery, k: usize, patch: usize) -> Bes
             if over {
                 continue;
             }
-            let c = approx_cost(data, base, stride, &offs[vi], q, ca, src.min_range);
+            let c = approx_cost(data, base, &flat[vi], q, ca, src.min_range);
             smallest.push(c);
             kept.push((c, ni as u32, vi as u8));
             if kept.len() > 8 * (k + 8) {
@@ -369,7 +392,7 @@ mod tests {
                     let exact = rank_cost(&src, &q, &offs[vi], (node.x, node.y), &node.exit_angles, vi);
                     let ca = angle_cost_mapped(&q.exit_angles, &node.exit_angles, *v);
                     let base = node.y as i64 * stride + node.x as i64;
-                    let approx = approx_cost(&src.heights.data, base, stride, &offs[vi], &q, ca, min_range);
+                    let approx = approx_cost(&src.heights.data, base, &flat_offsets(&offs, stride)[vi], &q, ca, min_range);
                     worst = worst.max((approx - exact.cost).abs());
                 }
             }

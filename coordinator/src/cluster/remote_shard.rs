@@ -214,6 +214,15 @@ impl ShardScorer for RemoteShard {
         self.state.lock().map(|s| s.sources.clone()).unwrap_or_default()
     }
 
+    fn backend(&self) -> String {
+        let w = self.state.lock().map(|s| s.worker).unwrap_or(0);
+        match self.cluster.capabilities().get(w).cloned().flatten() {
+            Some(c) if c.backend == "gpu" => format!("worker {}: gpu: {}", self.cluster.cfg.workers[w], c.adapter),
+            Some(c) => format!("worker {}: {}", self.cluster.cfg.workers[w], c.backend),
+            None => format!("worker {}", self.cluster.cfg.workers[w]),
+        }
+    }
+
     fn skipped(&self) -> Vec<SkippedExemplar> {
         self.state.lock().map(|s| s.skipped.clone()).unwrap_or_default()
     }
