@@ -34,7 +34,7 @@ pub struct CpuBackend;
 
 impl ScoringBackend for CpuBackend {
     fn info(&self) -> BackendInfo {
-        BackendInfo::cpu()
+        BackendInfo::cpu(rayon::current_num_threads())
     }
 
     fn round1(&self, sources: &[Source], block: &[UserPatchQuery], k: usize, patch: usize) -> Result<Vec<BestSet>, String> {

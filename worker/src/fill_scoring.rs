@@ -47,17 +47,31 @@ pub fn seed_jitter(seed: u64, source: u32, x: u32, y: u32, vi: usize) -> f32 {
     SEED_JITTER * jitter(seed, &[source as u64, x as u64, y as u64, vi as u64, 7])
 }
 
-/// The ranking form of a candidate-variant's cost (CPU only; f64 sums in `LaneSums` order).
-pub fn exact_cost(q: &FillQuery, prep: &Prepared, s: &Source, ci: usize, vi: usize, seed: u64, patch: usize) -> f32 {
+/// The terms of a candidate's cost that do not depend on its variant: noise cost,
+/// coherence share, repetition penalty.
+pub struct Terms {
+    noise: f32,
+    coherence: f32,
+    repeat: f32,
+}
+
+pub fn terms(q: &FillQuery, s: &Source, ci: usize, patch: usize) -> Terms {
     let c = &s.featureless[ci];
-    let rep = repeats(patch, &q.avoid, s.id, c.x, c.y);
-    let cn = q.noise.map(|u| noise_cost(&u, &c.noise)).unwrap_or(0.0);
+    Terms {
+        noise: q.noise.map(|u| noise_cost(&u, &c.noise)).unwrap_or(0.0),
+        coherence: coherence(q, s.id),
+        repeat: if repeats(patch, &q.avoid, s.id, c.x, c.y) { REPEAT_PENALTY } else { 0.0 },
+    }
+}
+
+/// The ranking form of a candidate-variant's cost (CPU only; f64 sums in `LaneSums`
+/// order), given the candidate's [`terms`].
+pub fn exact_cost(q: &FillQuery, prep: &Prepared, s: &Source, ci: usize, vi: usize, seed: u64, t: &Terms) -> f32 {
+    let c = &s.featureless[ci];
     let (sum, sum2) = moments(&c.pixels, &prep.mapped[vi], &prep.values);
     let n = q.samples.len().max(1) as f64;
     let co = ((sum2 / n - (sum / n) * (sum / n)).max(0.0)).sqrt() as f32 / q.relief;
-    ALPHA_O * co + ALPHA_N * cn - BETA_C * coherence(q, s.id)
-        + if rep { REPEAT_PENALTY } else { 0.0 }
-        + seed_jitter(seed, s.id, c.x, c.y, vi)
+    ALPHA_O * co + ALPHA_N * t.noise - BETA_C * t.coherence + t.repeat + seed_jitter(seed, s.id, c.x, c.y, vi)
 }
 
 /// Twin of the shader's `candidate_cost` (f32; the filter), given the seed's jitter.
@@ -134,8 +148,8 @@ pub fn best_fill_set(sources: &[Source], maps: &[Vec<u32>], q: &FillQuery, seed:
         .enumerate()
         .flat_map_iter(|(si, s)| {
             s.featureless.iter().enumerate().flat_map(move |(ci, c)| {
-                (0..prep.mapped.len())
-                    .map(move |vi| (exact_cost(q, prep, s, ci, vi, seed, patch), s.id, c.y, c.x, vi as u8, si, ci))
+                let t = terms(q, s, ci, patch);
+                (0..prep.mapped.len()).map(move |vi| (exact_cost(q, prep, s, ci, vi, seed, &t), s.id, c.y, c.x, vi as u8, si, ci))
             })
         })
         .collect();

@@ -73,11 +73,7 @@ impl WorkerService {
     pub fn backend_info(&self) -> crate::BackendInfo {
         match &self.cfg.gpu {
             Some(g) => g.info.clone(),
-            None => crate::BackendInfo {
-                backend: "cpu",
-                adapter: format!("rayon, {} threads", self.pool.current_num_threads()),
-                max_buffer_bytes: 0,
-            },
+            None => crate::BackendInfo::cpu(self.pool.current_num_threads()),
         }
     }
 

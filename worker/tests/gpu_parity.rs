@@ -189,7 +189,7 @@ fn pool_source(id: u32, n: usize, rng: &mut Lcg) -> Source {
 fn fill_kernel_matches_its_cpu_twin() {
     use ridgeline_terrain::patch_geometry::variant_maps;
     use ridgeline_terrain::shard::FillQuery;
-    use ridgeline_worker::fill_scoring::{self, approx_cost, exact_cost, prepare, seed_jitter};
+    use ridgeline_worker::fill_scoring::{self, approx_cost, exact_cost, prepare, seed_jitter, terms};
     let Some(ctx) = device() else { return };
     let mut rng = Lcg(11);
     let sources = vec![pool_source(2, 30, &mut rng), pool_source(5, 45, &mut rng)];
@@ -231,7 +231,7 @@ fn fill_kernel_matches_its_cpu_twin() {
             let (si, ci) = index[i / 6];
             let (s, cand) = (&sources[si], &sources[si].featureless[ci]);
             let twin = approx_cost(q, &prep, s, ci, i % 6, seed_jitter(seed, s.id, cand.x, cand.y, i % 6), PATCH);
-            let exact = exact_cost(q, &prep, s, ci, i % 6, seed, PATCH);
+            let exact = exact_cost(q, &prep, s, ci, i % 6, seed, &terms(q, s, ci, PATCH));
             worst_twin = worst_twin.max((kernel - twin).abs());
             worst_exact = worst_exact.max((kernel - exact).abs());
         }

@@ -12,7 +12,7 @@
 
 use super::{hit_lists, GpuContext, CAP, MAX_GROUPS};
 use crate::exemplar_store::Source;
-use crate::fill_scoring::{self, exact_cost, prepare, seed_jitter, Scored};
+use crate::fill_scoring::{self, exact_cost, prepare, seed_jitter, terms, Scored};
 use bytemuck::{Pod, Zeroable};
 use rayon::prelude::*;
 use ridgeline_terrain::shard::{FillBestSet, FillQuery};
@@ -109,20 +109,26 @@ impl Resident {
         })
     }
 
-    fn with_jitter<T>(&self, ctx: &GpuContext, sources: &[Source], seed: u64, f: impl FnOnce(&wgpu::Buffer) -> T) -> T {
+    /// The jitter buffer of `seed`, made once per seed (the lock is not held while
+    /// the kernel runs).
+    fn jitter(&self, ctx: &GpuContext, sources: &[Source], seed: u64) -> wgpu::Buffer {
         let mut slot = self.jitter.lock().unwrap_or_else(|e| e.into_inner());
-        if slot.as_ref().map(|j| j.0) != Some(seed) {
-            let jit: Vec<f32> = self
-                .index
-                .iter()
-                .flat_map(|&(si, ci)| {
-                    let (s, c) = (&sources[si], &sources[si].featureless[ci]);
-                    (0..6).map(move |vi| seed_jitter(seed, s.id, c.x, c.y, vi))
-                })
-                .collect();
-            *slot = Some((seed, ctx.storage("seed jitter", &jit)));
+        if let Some((s, buf)) = slot.as_ref() {
+            if *s == seed {
+                return buf.clone();
+            }
         }
-        f(&slot.as_ref().expect("set above").1)
+        let jit: Vec<f32> = self
+            .index
+            .iter()
+            .flat_map(|&(si, ci)| {
+                let (s, c) = (&sources[si], &sources[si].featureless[ci]);
+                (0..6).map(move |vi| seed_jitter(seed, s.id, c.x, c.y, vi))
+            })
+            .collect();
+        let buf = ctx.storage("seed jitter", &jit);
+        *slot = Some((seed, buf.clone()));
+        buf
     }
 }
 
@@ -205,22 +211,21 @@ fn run(
         _pad: 0,
     };
     let n_costs = chunk.len() * per_target;
-    res.with_jitter(ctx, sources, seed, |jitter| {
-        let buffers = [
-            &res.pixels,
-            &res.cands,
-            jitter,
-            &ctx.uniform("fill params", &params),
-            &ctx.storage("targets", &data.targets),
-            &ctx.storage("sample indices", &data.idx),
-            &ctx.storage("sample values", &data.values),
-            &ctx.storage("coherence", &data.coherence),
-            &ctx.storage("avoid", &data.avoid),
-            &ctx.storage("costs", &vec![0f32; n_costs.max(1)]),
-            &ctx.storage("hits", &vec![0u32; chunk.len() * (CAP + 1)]),
-        ];
-        ctx.dispatch(&ctx.fill, &buffers, chunk.len(), want_costs.then_some(n_costs))
-    })
+    let jitter = res.jitter(ctx, sources, seed);
+    let buffers = [
+        &res.pixels,
+        &res.cands,
+        &jitter,
+        &ctx.uniform("fill params", &params),
+        &ctx.storage("targets", &data.targets),
+        &ctx.storage("sample indices", &data.idx),
+        &ctx.storage("sample values", &data.values),
+        &ctx.storage("coherence", &data.coherence),
+        &ctx.storage("avoid", &data.avoid),
+        &ctx.storage("costs", &vec![0f32; n_costs.max(1)]),
+        &ctx.storage("hits", &vec![0u32; chunk.len() * (CAP + 1)]),
+    ];
+    ctx.dispatch(&ctx.fill, &buffers, chunk.len(), want_costs.then_some(n_costs))
 }
 
 /// Targets per dispatch: the cost scratch must fit one binding.
@@ -250,7 +255,7 @@ pub fn score(ctx: &GpuContext, res: &Resident, r: &Request) -> Result<Vec<FillBe
                         let (si, ci) = res.index[h as usize / 6];
                         let vi = h as usize % 6;
                         let (s, c) = (&sources[si], &sources[si].featureless[ci]);
-                        (exact_cost(q, &prep, s, ci, vi, seed, patch), s.id, c.y, c.x, vi as u8, si, ci)
+                        (exact_cost(q, &prep, s, ci, vi, seed, &terms(q, s, ci, patch)), s.id, c.y, c.x, vi as u8, si, ci)
                     })
                     .collect();
                 fill_scoring::finish(sources, maps, q, scored, k)

@@ -63,8 +63,9 @@ pub struct BackendInfo {
 }
 
 impl BackendInfo {
-    pub fn cpu() -> Self {
-        BackendInfo { backend: "cpu", adapter: format!("rayon, {} threads", rayon::current_num_threads()), max_buffer_bytes: 0 }
+    /// The CPU backend on `threads` threads.
+    pub fn cpu(threads: usize) -> Self {
+        BackendInfo { backend: "cpu", adapter: format!("rayon, {threads} threads"), max_buffer_bytes: 0 }
     }
 }
 
