@@ -116,6 +116,13 @@ impl ScoringBackend for GpuBackend {
         k: usize,
         patch: usize,
     ) -> Vec<FillBestSet> {
-        CpuBackend.fill(sources, maps, targets, seed, k, patch)
+        if k > fill::KMAX {
+            return CpuBackend.fill(sources, maps, targets, seed, k, patch);
+        }
+        let request = fill::Request { sources, maps, targets, seed, k, patch };
+        fill::score(&self.ctx, &self.fill, &request).unwrap_or_else(|e| {
+            tracing::warn!(adapter = %self.ctx.info.adapter, reason = %e, "GPU fill scoring failed; batch scored on the CPU");
+            CpuBackend.fill(sources, maps, targets, seed, k, patch)
+        })
     }
 }
