@@ -103,6 +103,14 @@ fn at(data: &[f32], base: i64, stride: i64, o: [i32; 2]) -> f32 {
     data[(base + o[1] as i64 * stride + o[0] as i64) as usize]
 }
 
+/// Running minimum and maximum by plain comparisons: candidates never carry voids
+/// (`valid_centres`), so the NaN-aware `f32::min` (the shader's `min`, equal on
+/// non-NaN values) would only cost time.
+#[inline(always)]
+fn min_max(lo: f32, hi: f32, v: f32) -> (f32, f32) {
+    (if v < lo { v } else { lo }, if v > hi { v } else { hi })
+}
+
 /// Twin of the shader's `path_cost`: RMS difference between the user profile `q` and
 /// the samples normalised by their mean and range (floored at `min_range`), in f32,
 /// shifted by the first sample so the sums do not cancel. `flat` holds the samples'
@@ -121,15 +129,13 @@ pub fn approx_path_cost(data: &[f32], base: i64, flat: &[i64], q: &[f32], min_ra
         let v = [x(c[0]), x(c[1]), x(c[2]), x(c[3])];
         for l in 0..4 {
             s[l] += v[l] - x0;
-            lo = lo.min(v[l]);
-            hi = hi.max(v[l]);
+            (lo, hi) = min_max(lo, hi, v[l]);
         }
     }
     for (l, &o) in rest.iter().enumerate() {
         let v = x(o);
         s[l] += v - x0;
-        lo = lo.min(v);
-        hi = hi.max(v);
+        (lo, hi) = min_max(lo, hi, v);
     }
     let n = flat.len() as f32;
     let m = ((s[0] + s[1]) + (s[2] + s[3])) / n;
@@ -282,7 +288,8 @@ pub fn best_set(src: &Source, q: &UserPatchQuery, k: usize, patch: usize) -> Bes
             if over {
                 continue;
             }
-            let c = approx_cost(data, base, &flat[vi], q, ca, src.min_range);
+            // `approx_cost` from the sum already taken, operation for operation
+            let c = ALPHA_F * (sum / flat[vi].len().max(1) as f32) + ALPHA_A * ca;
             smallest.push(c);
             kept.push((c, ni as u32, vi as u8));
             if kept.len() > 8 * (k + 8) {
