@@ -34,7 +34,7 @@ enum Cmd {
     Synth(SynthArgs),
     /// Download public elevation tiles (Terrarium) for an area and write them as an exemplar library.
     FetchDem(FetchArgs),
-    /// Serve round-1 scoring to coordinators over gRPC.
+    /// Serve round-1 and hole-fill scoring to coordinators over gRPC.
     Worker(WorkerArgs),
 }
 
@@ -468,6 +468,21 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
         report.hole_fills,
         total
     );
+    if report.shards.len() > 1 || report.shards.iter().any(|s| s.backend != "cpu") {
+        for (i, s) in report.shards.iter().enumerate() {
+            let t = &s.times;
+            eprintln!(
+                "shard {i} ({}, {} exemplars): busy {:.2} s: round 1 {:.2} s in {} blocks, fill scoring {:.2} s in {} calls",
+                s.backend,
+                s.exemplars,
+                t.busy_s(),
+                t.round1_s,
+                t.round1_blocks,
+                t.fill_s,
+                t.fill_calls
+            );
+        }
+    }
     for f in &report.fallbacks {
         eprintln!("note: {f}");
     }

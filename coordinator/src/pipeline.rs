@@ -29,7 +29,7 @@ use crate::sketch::{analyse, SketchFeatures};
 use crate::user_patches::{user_patches, UserPatch};
 use ridgeline_terrain::grid::{Grid, Heightfield};
 use ridgeline_terrain::library::{common_cell_size, scan_library, ExemplarSpec};
-use ridgeline_terrain::shard::{ShardError, ShardScorer, SourceInfo};
+use ridgeline_terrain::shard::{ShardError, ShardScorer, ShardTimes, SourceInfo};
 use ridgeline_terrain::TerrainError;
 use ridgeline_worker::{FeatureCache, GpuContext, GpuMode, InProcessShard, ShardConfig};
 use std::path::{Path, PathBuf};
@@ -213,8 +213,23 @@ pub struct SynthReport {
     pub valley_adherence: crate::quality::Adherence,
     /// Gradient jumps across merge seams against those inside patches.
     pub seams: crate::quality::SeamScore,
+    /// Each shard: what it scored on and how long its calls took (round-1 blocks and
+    /// fill-scoring calls, wall seconds as the coordinator waited for them).
+    pub shards: Vec<ShardReport>,
     /// Peak resident memory of the process so far (Linux `VmHWM`), when known.
     pub peak_rss_bytes: Option<u64>,
+}
+
+/// One shard's part in a job.
+#[derive(Debug, Clone, Default, serde::Serialize)]
+pub struct ShardReport {
+    /// "cpu", "gpu: {adapter}", or the worker serving it and its backend.
+    pub backend: String,
+    pub exemplars: usize,
+    /// Feature candidates × 10 variants plus featureless candidates × 6.
+    pub candidate_variants: u64,
+    #[serde(flatten)]
+    pub times: ShardTimes,
 }
 
 /// Peak resident memory of this process (`VmHWM` of /proc/self/status), on Linux.
@@ -306,6 +321,12 @@ pub fn run_job(sketch_path: &Path, exemplar_dir: &Path, cfg: &SynthConfig) -> Re
     };
     let load_s = t.elapsed().as_secs_f64();
     let mut out = synthesize_in(sketch, &shards, cfg, &pool)?;
+    if let (Some(cluster), Some(cache)) = (&cfg.cluster, &cfg.cache_dir) {
+        // the next job's shards are sized by what this one measured
+        if let Err(e) = cluster.rates.save(cache) {
+            tracing::warn!(cache = %cache.display(), error = %e, "worker throughput not saved");
+        }
+    }
     out.report.cell_size_m = cell;
     out.report.stages.insert(0, StageTiming { stage: "exemplars", seconds: load_s });
     Ok(out)
@@ -357,6 +378,7 @@ fn synthesize_in(
 ) -> Result<SynthOutput, SynthError> {
     let p = cfg.patch;
     let mut report = SynthReport { width: sketch.width, height: sketch.height, patch: p, seed: cfg.seed, ..Default::default() };
+    let times_before: Vec<ShardTimes> = shards.iter().map(|s| s.times()).collect();
     report.exemplars = shards.iter().flat_map(|s| s.sources()).collect();
     report.exemplars.sort_by_key(|e| e.source);
     report.skipped_exemplars = shards.iter().flat_map(|s| s.skipped()).collect();
@@ -433,6 +455,30 @@ fn synthesize_in(
     for pl in &canvas.placements {
         let name = report.exemplars.iter().find(|e| e.source == pl.source).map(|e| e.name.clone()).unwrap_or_default();
         *report.placements_per_exemplar.entry(name).or_default() += 1;
+    }
+    report.shards = shards
+        .iter()
+        .zip(&times_before)
+        .map(|(s, before)| {
+            let (nodes, pool) = ridgeline_terrain::shard::candidate_counts(&s.sources());
+            ShardReport {
+                backend: s.backend(),
+                exemplars: s.sources().len(),
+                candidate_variants: (nodes[0] + nodes[1]) * 10 + pool * 6,
+                times: s.times().since(before),
+            }
+        })
+        .collect();
+    for (i, r) in report.shards.iter().enumerate() {
+        tracing::info!(
+            shard = i,
+            backend = %r.backend,
+            round1_blocks = r.times.round1_blocks,
+            round1_s = r.times.round1_s,
+            fill_calls = r.times.fill_calls,
+            fill_s = r.times.fill_s,
+            "shard busy"
+        );
     }
     report.peak_rss_bytes = peak_rss_bytes();
     Ok(SynthOutput { sketch_image: sketch, features_only, sketch: sk, user_patches: ups, canvas, report })

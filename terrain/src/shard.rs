@@ -152,10 +152,95 @@ pub trait ShardScorer: Send + Sync {
     fn backend(&self) -> String {
         "cpu".into()
     }
+    /// Time this shard has spent answering calls so far (wall seconds per kind of call,
+    /// and the work done), for the job report and throughput-based balancing.
+    fn times(&self) -> ShardTimes {
+        ShardTimes::default()
+    }
     /// Round 1 for a block of user patches: for every user patch and every source of
     /// the shard, the `k` best candidates in the total order.
     fn score_block(&self, block: &[UserPatchQuery], k: usize) -> Result<Vec<BestSet>, ShardError>;
     /// Hole-fill scoring for a batch of targets: for every target, the `k` best of the
     /// shard's featureless candidates in their 6 variants, in the total order.
     fn score_fill(&self, targets: &[FillQuery], seed: u64, k: usize) -> Result<Vec<FillBestSet>, ShardError>;
+}
+
+/// What a shard has answered and how long it took (wall seconds of the calls as the
+/// caller saw them: for a remote shard that includes the network).
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct ShardTimes {
+    pub round1_blocks: u64,
+    pub round1_s: f64,
+    pub fill_calls: u64,
+    pub fill_s: f64,
+    /// Profile or window samples read by the calls, summed over every candidate-variant
+    /// scored (a device-independent measure of work: the bench's bytes read / 4).
+    pub samples: u64,
+}
+
+impl ShardTimes {
+    /// The calls of `self` made since `earlier` was taken.
+    pub fn since(&self, earlier: &ShardTimes) -> ShardTimes {
+        ShardTimes {
+            round1_blocks: self.round1_blocks - earlier.round1_blocks,
+            round1_s: self.round1_s - earlier.round1_s,
+            fill_calls: self.fill_calls - earlier.fill_calls,
+            fill_s: self.fill_s - earlier.fill_s,
+            samples: self.samples - earlier.samples,
+        }
+    }
+
+    /// Busy seconds.
+    pub fn busy_s(&self) -> f64 {
+        self.round1_s + self.fill_s
+    }
+}
+
+/// Accumulates a shard's [`ShardTimes`] from concurrent calls.
+#[derive(Debug, Default)]
+pub struct ShardClock(std::sync::Mutex<ShardTimes>);
+
+impl ShardClock {
+    /// Records a round-1 block that took `seconds` and read `samples`.
+    pub fn round1(&self, seconds: f64, samples: u64) {
+        if let Ok(mut t) = self.0.lock() {
+            t.round1_blocks += 1;
+            t.round1_s += seconds;
+            t.samples += samples;
+        }
+    }
+    /// Records a fill-scoring call.
+    pub fn fill(&self, seconds: f64, samples: u64) {
+        if let Ok(mut t) = self.0.lock() {
+            t.fill_calls += 1;
+            t.fill_s += seconds;
+            t.samples += samples;
+        }
+    }
+    pub fn get(&self) -> ShardTimes {
+        self.0.lock().map(|t| *t).unwrap_or_default()
+    }
+}
+
+/// A shard's candidate counts: feature nodes (ridge, valley) and featureless patches.
+pub fn candidate_counts(sources: &[SourceInfo]) -> ([u64; 2], u64) {
+    sources.iter().fold(([0, 0], 0), |(n, f), s| {
+        ([n[0] + s.feature_nodes[0] as u64, n[1] + s.feature_nodes[1] as u64], f + s.featureless as u64)
+    })
+}
+
+/// Samples a round-1 block reads over a shard of `nodes` (ridge, valley) feature
+/// nodes: every user patch's profile samples for every node of its kind in 10 variants.
+pub fn round1_samples(nodes: [u64; 2], block: &[UserPatchQuery]) -> u64 {
+    let of_kind = |kind: FeatureKind| match kind {
+        FeatureKind::Ridge => nodes[0],
+        FeatureKind::Valley => nodes[1],
+    };
+    block.iter().map(|q| q.paths.iter().map(|p| p.offsets.len() as u64).sum::<u64>() * of_kind(q.kind) * 10).sum()
+}
+
+/// Samples a fill-scoring call reads over a pool of `pool` featureless patches: every
+/// target's known cells for every patch in its 6 variants.
+pub fn fill_samples(pool: u64, targets: &[FillQuery]) -> u64 {
+    targets.iter().map(|t| t.samples.len() as u64).sum::<u64>() * pool * 6
 }

@@ -114,6 +114,7 @@ impl Worker for WorkerService {
             backend: self.backend_info().backend.into(),
             adapter: self.backend_info().adapter,
             max_buffer_bytes: self.backend_info().max_buffer_bytes,
+            gpu_memory_bytes: self.backend_info().memory_bytes,
             threads: self.pool.current_num_threads() as u32,
             memory_bytes: system_memory(),
             version: env!("CARGO_PKG_VERSION").into(),

@@ -1,7 +1,8 @@
 //! ridgeline-worker: the exemplar side of the system. A worker holds a shard of the
 //! exemplar library (loaded once: heights, feature graphs from the on-disk cache,
 //! candidate centres, featureless pool) and answers round 1 of patch matching for
-//! blocks of user patches. [`InProcessShard`] is the embedded implementation of the
+//! blocks of user patches and hole-fill scoring for batches of fill targets, on the CPU
+//! or a GPU (`backend`). [`InProcessShard`] is the embedded implementation of the
 //! coordinator's `ShardScorer` trait; the gRPC service wraps the same store.
 
 pub mod backend;
@@ -21,7 +22,8 @@ use backend::{CpuBackend, GpuBackend, ScoringBackend};
 use rayon::prelude::*;
 use ridgeline_terrain::library::ExemplarSpec;
 use ridgeline_terrain::shard::{
-    BestSet, FillBestSet, FillQuery, ShardError, ShardScorer, SkippedExemplar, SourceInfo, UserPatchQuery,
+    fill_samples, round1_samples, BestSet, FillBestSet, FillQuery, ShardClock, ShardError, ShardScorer, ShardTimes,
+    SkippedExemplar, SourceInfo, UserPatchQuery,
 };
 use std::sync::Arc;
 
@@ -35,6 +37,8 @@ pub struct InProcessShard {
     /// Index maps of the 6 featureless variants.
     maps: Arc<Vec<Vec<u32>>>,
     backend: Arc<dyn ScoringBackend>,
+    /// Time spent answering (shared by clones).
+    clock: Arc<ShardClock>,
 }
 
 impl InProcessShard {
@@ -73,7 +77,7 @@ impl InProcessShard {
             },
             None => Arc::new(CpuBackend),
         };
-        InProcessShard { sources: Arc::new(sources), skipped, patch: cfg.patch, maps, backend }
+        InProcessShard { sources: Arc::new(sources), skipped, patch: cfg.patch, maps, backend, clock: Default::default() }
     }
 
     /// Replaces file names of the form `{content hash}.{ext}` (how a worker stores
@@ -150,13 +154,15 @@ impl ShardScorer for InProcessShard {
         }
         let t = std::time::Instant::now();
         let sets = self.backend.round1(&self.sources, block, k, self.patch).map_err(ShardError::Unavailable)?;
-        tracing::debug!(
-            backend = self.backend.info().backend,
-            user_patches = block.len(),
-            seconds = t.elapsed().as_secs_f64(),
-            "block scored"
-        );
+        let seconds = t.elapsed().as_secs_f64();
+        tracing::debug!(backend = self.backend.info().backend, user_patches = block.len(), seconds, "block scored");
+        let nodes = self.sources.iter().fold([0u64; 2], |n, s| [n[0] + s.nodes[0].len() as u64, n[1] + s.nodes[1].len() as u64]);
+        self.clock.round1(seconds, round1_samples(nodes, block));
         Ok(sets)
+    }
+
+    fn times(&self) -> ShardTimes {
+        self.clock.get()
     }
 
     fn score_fill(&self, targets: &[FillQuery], seed: u64, k: usize) -> Result<Vec<FillBestSet>, ShardError> {
@@ -164,6 +170,10 @@ impl ShardScorer for InProcessShard {
             return Err(ShardError::BadRequest("k must be at least 1".into()));
         }
         fill_scoring::validate(targets, self.patch).map_err(ShardError::BadRequest)?;
-        Ok(self.backend.fill(&self.sources, &self.maps, targets, seed, k, self.patch))
+        let t = std::time::Instant::now();
+        let sets = self.backend.fill(&self.sources, &self.maps, targets, seed, k, self.patch);
+        let pool: u64 = self.sources.iter().map(|s| s.featureless.len() as u64).sum();
+        self.clock.fill(t.elapsed().as_secs_f64(), fill_samples(pool, targets));
+        Ok(sets)
     }
 }

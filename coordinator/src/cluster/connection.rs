@@ -50,6 +50,8 @@ pub struct Cluster {
     pub stats: TransferStats,
     /// What each worker said it scores on when it connected (`None`: unreachable).
     capabilities: Mutex<Vec<Option<v1::CapabilitiesReply>>>,
+    /// Each worker's measured throughput.
+    pub rates: super::throughput::WorkerRates,
 }
 
 pub(crate) fn retryable(s: &Status) -> bool {
@@ -86,6 +88,7 @@ impl Cluster {
             alive: (0..n).map(|_| AtomicBool::new(true)).collect(),
             stats: TransferStats::default(),
             capabilities: Mutex::new(vec![None; n]),
+            rates: Default::default(),
         });
         let mut why = Vec::new();
         for w in 0..n {
@@ -101,7 +104,15 @@ impl Cluster {
             });
             match res {
                 Ok(cap) => {
-                    tracing::info!(worker = %cluster.cfg.workers[w], backend = %cap.backend, adapter = %cap.adapter, threads = cap.threads, memory = cap.memory_bytes, "worker ready");
+                    tracing::info!(
+                        worker = %cluster.cfg.workers[w],
+                        backend = %cap.backend,
+                        adapter = %cap.adapter,
+                        threads = cap.threads,
+                        memory_mb = cap.memory_bytes >> 20,
+                        gpu_memory_mb = cap.gpu_memory_bytes >> 20,
+                        "worker ready"
+                    );
                     if let Ok(mut c) = cluster.capabilities.lock() {
                         c[w] = Some(cap.clone());
                     }
@@ -126,6 +137,15 @@ impl Cluster {
     /// What each worker said it scores on when it connected, in worker order.
     pub fn capabilities(&self) -> Vec<Option<v1::CapabilitiesReply>> {
         self.capabilities.lock().map(|c| c.clone()).unwrap_or_default()
+    }
+
+    /// A worker's identity for throughput records: its address, backend and adapter.
+    pub fn worker_key(&self, w: usize) -> String {
+        let url = &self.cfg.workers[w];
+        match self.capabilities().get(w).cloned().flatten() {
+            Some(c) => format!("{url} {} {}", c.backend, c.adapter),
+            None => url.clone(),
+        }
     }
 
     /// Indices of the workers still alive.

@@ -1,6 +1,6 @@
 //! The coordinator's side of the cluster (design.md, Cluster; Crause 2015 §6.6): the
-//! exemplar library is split into shards balanced by estimated candidate count, each
-//! shard is assigned to a gRPC worker, and [`RemoteShard`] implements the same
+//! exemplar library is split into shards balanced by candidate count and each worker's
+//! measured throughput, each shard is assigned to a gRPC worker, and [`RemoteShard`] implements the same
 //! `ShardScorer` trait as the in-process shard, so the pipeline does not know the
 //! difference.
 //!
@@ -18,11 +18,12 @@
 //!
 //! Layout: [`connection`] (channels, authentication, liveness), [`remote_shard`] (the
 //! `ShardScorer` over gRPC, with retries and failover), [`planning`] (which exemplars
-//! form which shard).
+//! form which shard), [`throughput`] (how fast each worker has been).
 
 pub mod connection;
 pub mod planning;
 pub mod remote_shard;
+pub mod throughput;
 
 pub use connection::{Cluster, TransferStats};
 pub use planning::{plan_shards, remote_exemplars, remote_shards, RemoteExemplar};

@@ -1,6 +1,8 @@
 //! Shard planning: which exemplars form which worker's shard. Exemplars are hashed
 //! (their content names them on the workers) and split into one shard per live worker,
-//! balanced by candidate count — known from earlier jobs, else estimated from area.
+//! sized by candidate count — known from earlier jobs, else estimated from area — over
+//! each worker's measured throughput (`throughput`), so every worker is busy for about
+//! the same time.
 
 use super::connection::Cluster;
 use super::remote_shard::RemoteShard;
@@ -44,16 +46,20 @@ pub fn remote_exemplars(items: &[(u32, ExemplarSpec)]) -> Result<Vec<RemoteExemp
         .collect()
 }
 
-/// Splits items of the given weights into `n` shards of near-equal total weight
-/// (longest-processing-time-first greedy; ties by index). Returns item indices.
-pub fn plan_shards(weights: &[u64], n: usize) -> Vec<Vec<usize>> {
-    let n = n.max(1);
+/// Splits items of the given weights into one shard per capacity so that every
+/// shard's weight over its capacity (its expected busy time) is near-equal:
+/// longest-processing-time-first, each item to the shard that would finish it first
+/// (ties by index). Returns item indices per shard, ascending.
+pub fn plan_shards(weights: &[u64], capacities: &[f64]) -> Vec<Vec<usize>> {
+    let n = capacities.len().max(1);
+    let cap = |s: usize| capacities.get(s).copied().filter(|c| c.is_finite() && *c > 0.0).unwrap_or(1.0);
     let mut order: Vec<usize> = (0..weights.len()).collect();
     order.sort_by(|&a, &b| weights[b].cmp(&weights[a]).then(a.cmp(&b)));
     let mut load = vec![0u64; n];
     let mut shards: Vec<Vec<usize>> = vec![Vec::new(); n];
     for i in order {
-        let s = (0..n).min_by_key(|&s| (load[s], s)).unwrap_or(0);
+        let finish = |s: usize| (load[s] + weights[i]) as f64 / cap(s);
+        let s = (0..n).min_by(|&a, &b| finish(a).total_cmp(&finish(b)).then(a.cmp(&b))).unwrap_or(0);
         load[s] += weights[i];
         shards[s].push(i);
     }
@@ -122,8 +128,21 @@ pub fn remote_shards(
         .zip(&areas)
         .map(|(e, &a)| known.get(&count_key(e, patch, out_cell)).copied().unwrap_or(((a as f64) * ratio).max(1.0) as u64))
         .collect();
+    let keys: Vec<String> = live.iter().map(|&w| cluster.worker_key(w)).collect();
+    let rates = cluster.rates.rates(&keys, cache);
+    let caps = super::throughput::capacities(&rates);
+    let plan = plan_shards(&weights, &caps);
+    for (j, part) in plan.iter().enumerate() {
+        tracing::info!(
+            worker = %cluster.cfg.workers[live[j]],
+            exemplars = part.len(),
+            candidates = part.iter().map(|&k| weights[k]).sum::<u64>(),
+            measured_msamples_per_s = rates[j].map(|r| r / 1e6),
+            "shard planned"
+        );
+    }
     let mut shards: Vec<Arc<dyn ShardScorer>> = Vec::new();
-    for (i, part) in plan_shards(&weights, live.len()).into_iter().enumerate() {
+    for (i, part) in plan.into_iter().enumerate() {
         if part.is_empty() {
             continue;
         }
@@ -154,10 +173,28 @@ mod tests {
     #[test]
     fn shards_balance_weight() {
         let w = [4000u64, 1000, 1000, 1000, 1000, 250];
-        let plan = plan_shards(&w, 2);
+        let plan = plan_shards(&w, &[1.0, 1.0]);
         let total = |s: &Vec<usize>| s.iter().map(|&i| w[i]).sum::<u64>();
         assert_eq!(total(&plan[0]) + total(&plan[1]), 8250);
         assert!(total(&plan[0]).abs_diff(total(&plan[1])) <= 250, "{plan:?}");
         assert!(plan.iter().all(|s| s.windows(2).all(|p| p[0] < p[1])));
+    }
+
+    #[test]
+    fn a_faster_worker_gets_a_larger_shard_and_both_finish_together() {
+        // 40 exemplars of mixed sizes; worker 0 measured 3 times as fast as worker 1
+        let w: Vec<u64> = (0..40u64).map(|i| 200 + (i * 7919) % 1800).collect();
+        let total: u64 = w.iter().sum();
+        let plan = plan_shards(&w, &[3.0, 1.0]);
+        let load = |s: &Vec<usize>| s.iter().map(|&i| w[i]).sum::<u64>() as f64;
+        let (t0, t1) = (load(&plan[0]) / 3.0, load(&plan[1]) / 1.0);
+        assert!((load(&plan[0]) / total as f64 - 0.75).abs() < 0.03, "{} of {total}", load(&plan[0]));
+        assert!((t0 - t1).abs() <= 2000.0, "busy times {t0} and {t1}");
+        // every exemplar in exactly one shard
+        let mut all: Vec<usize> = plan.concat();
+        all.sort_unstable();
+        assert_eq!(all, (0..40).collect::<Vec<_>>());
+        // unknown capacities (non-positive) count as 1
+        assert_eq!(plan_shards(&w, &[0.0, 1.0]), plan_shards(&w, &[1.0, 1.0]));
     }
 }

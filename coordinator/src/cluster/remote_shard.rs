@@ -9,7 +9,8 @@ use prost::Message;
 use ridgeline_proto::convert::*;
 use ridgeline_proto::v1;
 use ridgeline_terrain::shard::{
-    BestSet, FillBestSet, FillQuery, ShardError, ShardScorer, SkippedExemplar, SourceInfo, UserPatchQuery,
+    candidate_counts, fill_samples, round1_samples, BestSet, FillBestSet, FillQuery, ShardClock, ShardError, ShardScorer,
+    ShardTimes, SkippedExemplar, SourceInfo, UserPatchQuery,
 };
 use sha2::{Digest, Sha256};
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -33,6 +34,7 @@ pub struct RemoteShard {
     exemplars: Vec<RemoteExemplar>,
     state: Mutex<ShardState>,
     next_block: AtomicU32,
+    clock: ShardClock,
 }
 
 const CHUNK: usize = 1 << 20;
@@ -61,6 +63,7 @@ impl RemoteShard {
             exemplars,
             state: Mutex::new(ShardState { worker, stream: None, sources: Vec::new(), skipped: Vec::new() }),
             next_block: AtomicU32::new(0),
+            clock: ShardClock::default(),
         };
         if !shard.cluster.alive[worker].load(Ordering::SeqCst) {
             let next = shard.cluster.next_alive(worker).ok_or_else(|| ShardError::Unavailable("no live worker left".into()))?;
@@ -209,6 +212,24 @@ impl RemoteShard {
     }
 }
 
+impl RemoteShard {
+    /// The shard's candidate counts (feature nodes per kind, featureless patches).
+    fn counts(&self) -> ([u64; 2], u64) {
+        self.state.lock().map(|s| candidate_counts(&s.sources)).unwrap_or_default()
+    }
+
+    /// Records an answered call in the shard's clock and the answering worker's rate.
+    fn measured(&self, seconds: f64, samples: u64, round1: bool) {
+        if round1 {
+            self.clock.round1(seconds, samples);
+        } else {
+            self.clock.fill(seconds, samples);
+        }
+        self.cluster.rates.record(&self.cluster.worker_key(self.worker()), samples, seconds);
+        tracing::debug!(seconds, samples, "worker answered");
+    }
+}
+
 impl ShardScorer for RemoteShard {
     fn sources(&self) -> Vec<SourceInfo> {
         self.state.lock().map(|s| s.sources.clone()).unwrap_or_default()
@@ -227,6 +248,10 @@ impl ShardScorer for RemoteShard {
         self.state.lock().map(|s| s.skipped.clone()).unwrap_or_default()
     }
 
+    fn times(&self) -> ShardTimes {
+        self.clock.get()
+    }
+
     fn score_block(&self, block: &[UserPatchQuery], k: usize) -> Result<Vec<BestSet>, ShardError> {
         let req = v1::ScoreRequest {
             shard_key: self.key.clone(),
@@ -235,7 +260,10 @@ impl ShardScorer for RemoteShard {
             queries: block.iter().map(query_to_wire).collect(),
         };
         let _span = tracing::debug_span!("worker_call", shard = %self.key, block = req.block_index).entered();
+        let t = std::time::Instant::now();
         let reply = self.with_failover(|s, st| s.score_once(st, &req))?;
+        let samples = round1_samples(self.counts().0, block);
+        self.measured(t.elapsed().as_secs_f64(), samples, true);
         let stats = &self.cluster.stats;
         stats.request_bytes.fetch_add(req.encoded_len() as u64, Ordering::Relaxed);
         stats.reply_bytes.fetch_add(reply.encoded_len() as u64, Ordering::Relaxed);
@@ -251,6 +279,7 @@ impl ShardScorer for RemoteShard {
             targets: targets.iter().map(fill_target_to_wire).collect(),
         };
         let _span = tracing::debug_span!("worker_call", shard = %self.key, fill_targets = targets.len()).entered();
+        let t = std::time::Instant::now();
         let reply = self.with_failover(|s, st| {
             let (c, w) = (&s.cluster, st.worker);
             c.rt.block_on(async {
@@ -261,6 +290,7 @@ impl ShardScorer for RemoteShard {
                     .map(|r| r.into_inner())
             })
         })?;
+        self.measured(t.elapsed().as_secs_f64(), fill_samples(self.counts().1, targets), false);
         let stats = &self.cluster.stats;
         stats.request_bytes.fetch_add(req.encoded_len() as u64, Ordering::Relaxed);
         stats.reply_bytes.fetch_add(reply.encoded_len() as u64, Ordering::Relaxed);

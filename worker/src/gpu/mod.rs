@@ -57,15 +57,18 @@ pub struct BackendInfo {
     pub backend: &'static str,
     /// Adapter name and driver, or the CPU's thread count.
     pub adapter: String,
-    /// Largest single buffer the device accepts (bytes); 0 on the CPU. wgpu does not
-    /// expose the device's memory size; this bounds how large a shard can be resident.
+    /// Largest single buffer the device accepts (bytes); 0 on the CPU: this bounds how
+    /// large a shard's pool can be resident in one binding.
     pub max_buffer_bytes: u64,
+    /// The device's own memory (its device-local Vulkan heaps, bytes); 0 on the CPU or
+    /// where the driver does not say.
+    pub memory_bytes: u64,
 }
 
 impl BackendInfo {
     /// The CPU backend on `threads` threads.
     pub fn cpu(threads: usize) -> Self {
-        BackendInfo { backend: "cpu", adapter: format!("rayon, {threads} threads"), max_buffer_bytes: 0 }
+        BackendInfo { backend: "cpu", adapter: format!("rayon, {threads} threads"), max_buffer_bytes: 0, memory_bytes: 0 }
     }
 }
 
@@ -104,6 +107,17 @@ pub(crate) const MAX_GROUPS: usize = 65_535;
 
 fn is_real_gpu(t: wgpu::DeviceType) -> bool {
     matches!(t, wgpu::DeviceType::DiscreteGpu | wgpu::DeviceType::IntegratedGpu | wgpu::DeviceType::VirtualGpu)
+}
+
+/// The size of a Vulkan adapter's device-local memory heaps, in bytes. wgpu has no
+/// portable query for it, so this asks the Vulkan driver under wgpu directly.
+fn device_memory(adapter: &wgpu::Adapter) -> Option<u64> {
+    // SAFETY: the HAL adapter is only read, while `adapter` (which owns it) is alive;
+    // the physical device handle it returns belongs to the instance queried.
+    let hal = unsafe { adapter.as_hal::<wgpu::hal::api::Vulkan>() }?;
+    let props = unsafe { hal.shared_instance().raw_instance().get_physical_device_memory_properties(hal.raw_physical_device()) };
+    const DEVICE_LOCAL: u32 = 0x1; // VK_MEMORY_HEAP_DEVICE_LOCAL_BIT
+    Some(props.memory_heaps_as_slice().iter().filter(|h| h.flags.as_raw() & DEVICE_LOCAL != 0).map(|h| h.size).sum())
 }
 
 impl GpuContext {
@@ -178,8 +192,18 @@ impl GpuContext {
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(dev_err(format!("the kernels do not compile: {e}")));
         }
-        let info = BackendInfo { backend: "gpu", adapter: name, max_buffer_bytes: limits.max_buffer_size };
-        tracing::info!(adapter = %info.adapter, max_buffer_bytes = info.max_buffer_bytes, "GPU backend ready");
+        let info = BackendInfo {
+            backend: "gpu",
+            adapter: name,
+            max_buffer_bytes: limits.max_buffer_size,
+            memory_bytes: device_memory(adapter).unwrap_or(0),
+        };
+        tracing::info!(
+            adapter = %info.adapter,
+            memory_mb = info.memory_bytes >> 20,
+            max_buffer_mb = info.max_buffer_bytes >> 20,
+            "GPU backend ready"
+        );
         Ok(Some(Arc::new(GpuContext { device, queue, info, round1, fill, limits })))
     }
 
