@@ -10,7 +10,12 @@
 //! candidate-variant, an upper bound on the CPU since pruning stops some early; the GPU
 //! kernels read every sample twice, so their figure is twice the samples' bytes). The
 //! GPU figures include the CPU re-scoring of the hits and the transfers: they are what
-//! a worker delivers, not the kernel alone.
+//! a worker delivers, not the kernel alone. Each backend's bytes-read figure is also
+//! given as a share of its memory bandwidth, measured in the same run (CPU: a parallel
+//! sum over 512 MiB; GPU: a 256 MiB buffer-to-buffer copy, bytes read plus written):
+//! both kernels gather from data that mostly sits in caches (a patch's samples, a
+//! candidate's pixels against many targets), so a share near or above 100% means the
+//! kernel is not bound by memory bandwidth but by arithmetic and latency.
 //!
 //! `cargo bench -p ridgeline --bench kernels` (RIDGELINE_BENCH_RUNS, default 3;
 //! RIDGELINE_BENCH_SKETCH, default mixed-1024).
@@ -52,13 +57,14 @@ fn main() {
         queries.len()
     );
     let targets = fill_targets(sources);
-    bench(&shard, &queries, &targets, n_runs);
+    bench(&shard, &queries, &targets, n_runs, (host_read_bandwidth(), "host memory read by all cores"));
     let mode: GpuMode =
         std::env::var("RIDGELINE_BENCH_GPU").unwrap_or_else(|_| "auto".into()).parse().expect("RIDGELINE_BENCH_GPU");
     match GpuContext::open(mode) {
         Ok(Some(ctx)) => {
+            let bandwidth = ctx.copy_bandwidth().expect("bandwidth");
             let gpu = InProcessShard::load(&items, &ShardConfig { gpu: Some(ctx), ..cfg.clone() });
-            bench(&gpu, &queries, &targets, n_runs);
+            bench(&gpu, &queries, &targets, n_runs, (bandwidth, "device buffer copy, read + write"));
         }
         Ok(None) => println!("GPU backend: no GPU found (RIDGELINE_BENCH_GPU=software runs it on lavapipe)"),
         Err(e) => println!("GPU backend: {e}"),
@@ -89,11 +95,35 @@ fn fill_targets(sources: &[ridgeline_worker::Source]) -> Vec<FillQuery> {
         .collect()
 }
 
-fn bench(shard: &InProcessShard, queries: &[ridgeline_terrain::shard::UserPatchQuery], targets: &[FillQuery], n_runs: usize) {
+/// The host's memory read bandwidth: a parallel sum over 512 MiB, best of 5.
+fn host_read_bandwidth() -> f64 {
+    use rayon::prelude::*;
+    // integer words, so the sum vectorises and only memory limits it
+    let data: Vec<u32> = (0..128u32 << 20).collect();
+    let mut best = f64::INFINITY;
+    for _ in 0..6 {
+        let t = Instant::now();
+        let s: u32 =
+            data.par_chunks(1 << 16).map(|c| c.iter().fold(0u32, |a, &v| a.wrapping_add(v))).reduce(|| 0, u32::wrapping_add);
+        std::hint::black_box(s);
+        best = best.min(t.elapsed().as_secs_f64());
+    }
+    (data.len() * 4) as f64 / best
+}
+
+fn bench(
+    shard: &InProcessShard,
+    queries: &[ridgeline_terrain::shard::UserPatchQuery],
+    targets: &[FillQuery],
+    n_runs: usize,
+    bandwidth: (f64, &str),
+) {
     let sources = shard.source_data();
     let info = shard.backend().info();
     let passes = if info.backend == "gpu" { 2.0 } else { 1.0 };
     println!("{} backend: {}", info.backend, info.adapter);
+    println!("  memory bandwidth {:.1} GB/s ({})", bandwidth.0 / 1e9, bandwidth.1);
+    let share = |bytes_per_s: f64| 100.0 * bytes_per_s / bandwidth.0;
     // round 1
     let (mut variants, mut samples) = (0u64, 0u64);
     for q in queries {
@@ -113,10 +143,11 @@ fn bench(shard: &InProcessShard, queries: &[ridgeline_terrain::shard::UserPatchQ
     }
     let t1 = median(&mut times);
     println!(
-        "  round 1      {t1:>8.3} s  {:>7.1} M candidate-variants/s  {:>6.2} GB/s read (≤ {:.1} GB)",
+        "  round 1      {t1:>8.3} s  {:>7.1} M candidate-variants/s  {:>6.2} GB/s read (≤ {:.1} GB; {:.0}% of bandwidth)",
         variants as f64 / t1 / 1e6,
         passes * samples as f64 * 4.0 / t1 / 1e9,
-        passes * samples as f64 * 4.0 / 1e9
+        passes * samples as f64 * 4.0 / 1e9,
+        share(passes * samples as f64 * 4.0 / t1)
     );
 
     let featureless: u64 = sources.iter().map(|s| s.featureless.len() as u64).sum();
@@ -132,9 +163,10 @@ fn bench(shard: &InProcessShard, queries: &[ridgeline_terrain::shard::UserPatchQ
     }
     let tf = median(&mut times);
     println!(
-        "  fill scoring {tf:>8.3} s  {:>7.1} M candidate-variants/s  {:>6.2} GB/s read ({} targets x {} candidates x 6)",
+        "  fill scoring {tf:>8.3} s  {:>7.1} M candidate-variants/s  {:>6.2} GB/s read ({:.0}% of bandwidth; {} targets x {} candidates x 6)",
         fill_variants as f64 / tf / 1e6,
         fill_bytes / tf / 1e9,
+        share(fill_bytes / tf),
         targets.len(),
         featureless
     );

@@ -5,7 +5,9 @@
 //! Each size runs in a child process of this benchmark, so peaks do not mix.
 //!
 //! `cargo bench -p ridgeline --bench scaling` (RIDGELINE_SCALING_SIZES: comma-separated
-//! sides, default 1024,2048,4096,8192; RIDGELINE_BENCH_THREADS: threads, default all).
+//! sides, default 1024,2048,4096,8192; RIDGELINE_BENCH_THREADS: threads, default all;
+//! RIDGELINE_BENCH_GPU: the shards' backend as `--gpu` takes it, default auto: a real
+//! GPU where there is one). Each job also prints its shard's backend and busy seconds.
 
 use ridgeline::pipeline::{run_job, SynthConfig};
 mod common;
@@ -35,7 +37,8 @@ fn tiled_sketch(src: &Grid<u8>, n: usize) -> Grid<u8> {
 
 fn cfg(cache: &Path) -> SynthConfig {
     let threads = std::env::var("RIDGELINE_BENCH_THREADS").ok().and_then(|v| v.parse().ok()).unwrap_or(0);
-    SynthConfig { cache_dir: Some(cache.to_path_buf()), threads, max_side: 65536, ..Default::default() }
+    let gpu = std::env::var("RIDGELINE_BENCH_GPU").unwrap_or_else(|_| "auto".into()).parse().expect("RIDGELINE_BENCH_GPU");
+    SynthConfig { cache_dir: Some(cache.to_path_buf()), threads, max_side: 65536, gpu, ..Default::default() }
 }
 
 /// Child mode: one job on `sketch`, printing one line per stage and the peak.
@@ -59,6 +62,18 @@ fn child(sketch: &Path, dems: &Path, cache: &Path) {
         println!("  {:<18} {:>9.3} s  {:>8.4} s/MP{note}", s.stage, s.seconds, s.seconds / mp);
     }
     println!("  {:<18} {:>9.3} s  {:>8.4} s/MP", "TOTAL", total, total / mp);
+    for s in &r.shards {
+        let t = &s.times;
+        println!(
+            "  shard on {}: busy {:.3} s (round 1 {:.3} s in {} blocks, fill scoring {:.3} s in {} calls)",
+            s.backend,
+            t.busy_s(),
+            t.round1_s,
+            t.round1_blocks,
+            t.fill_s,
+            t.fill_calls
+        );
+    }
     let peak = r.peak_rss_bytes.unwrap_or(0);
     println!("  peak RSS {:.1} MiB", peak as f64 / (1 << 20) as f64);
     println!("PEAK {} {peak}", r.width * r.height);

@@ -274,6 +274,34 @@ impl GpuContext {
         Ok((hit_words, cost_list))
     }
 
+    /// The device's memory bandwidth as a large buffer-to-buffer copy achieves it
+    /// (bytes read plus bytes written per second, best of 5 after a warm-up): the
+    /// yardstick for the kernels' bytes-read figures in the benchmark.
+    pub fn copy_bandwidth(&self) -> Result<f64, String> {
+        let size = (self.limits.max_buffer_size.min(256 << 20) / 4 * 4).max(4);
+        let buffer = |label| {
+            self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage: wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        };
+        let (a, b) = (buffer("bandwidth a"), buffer("bandwidth b"));
+        let mut best = f64::INFINITY;
+        for round in 0..6 {
+            let mut encoder = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+            encoder.copy_buffer_to_buffer(&a, 0, &b, 0, size);
+            let t = std::time::Instant::now();
+            self.queue.submit(Some(encoder.finish()));
+            self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| e.to_string())?;
+            if round > 0 {
+                best = best.min(t.elapsed().as_secs_f64());
+            }
+        }
+        Ok(2.0 * size as f64 / best)
+    }
+
     /// A uniform buffer holding `value`.
     pub(crate) fn uniform<T: bytemuck::Pod>(&self, label: &str, value: &T) -> wgpu::Buffer {
         use wgpu::util::DeviceExt;
