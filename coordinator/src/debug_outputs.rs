@@ -144,7 +144,7 @@ struct PlacementRecord<'a> {
 
 /// Writes the debug outputs of a finished job into `dir` (created if needed).
 pub fn write_debug_outputs(dir: &Path, out: &SynthOutput, sketch: &Grid<u8>, cell: f32) -> ridgeline_terrain::Result<()> {
-    std::fs::create_dir_all(dir)
+    ridgeline_terrain::staging::create_output_dir(dir)
         .map_err(|source| ridgeline_terrain::TerrainError::Write { path: dir.to_path_buf(), cause: source.into() })?;
     write_rgb_png(&dir.join("sketch_features.png"), &sketch_overlay(out, sketch))?;
     if let Some(f) = &out.features_only {

@@ -175,6 +175,34 @@ fn job_id() -> String {
     format!("{:012x}", (t as u64 ^ ((std::process::id() as u64) << 40)) & 0xffff_ffff_ffff)
 }
 
+/// Exit status after SIGINT or SIGTERM (128 + SIGINT, as shells report an interrupt).
+const EXIT_SIGNAL: i32 = 130;
+
+/// SIGINT and SIGTERM end a job at once, whatever disposition the process inherited
+/// (a run started in the background by a non-interactive shell ignores SIGINT
+/// otherwise): temporary files are removed, nothing staged is committed, every
+/// existing file stays as it was, and the exit status is 130. (The worker handles
+/// signals itself: it drains its calls and stops.)
+fn on_signal_clean_up_and_exit() {
+    use signal_hook::consts::{SIGINT, SIGTERM};
+    let mut signals = match signal_hook::iterator::Signals::new([SIGINT, SIGTERM]) {
+        Ok(s) => s,
+        Err(e) => {
+            tracing::warn!(error = %e, "cannot handle SIGINT/SIGTERM: a signal will end the job without cleaning up");
+            return;
+        }
+    };
+    std::thread::spawn(move || {
+        if let Some(sig) = signals.forever().next() {
+            let name = if sig == SIGINT { "SIGINT" } else { "SIGTERM" };
+            ridgeline_terrain::staging::remove_in_flight_and_exit(EXIT_SIGNAL, |removed| {
+                tracing::warn!(signal = name, temporary_files_removed = removed, "interrupted");
+                eprintln!("interrupted by {name}: stopped; temporary files removed (outputs appear only when a job completes)");
+            });
+        }
+    });
+}
+
 fn main() -> std::process::ExitCode {
     // Vulkan drivers probe for a Wayland display and print "error: XDG_RUNTIME_DIR is
     // invalid" to stderr when it is unset (servers, containers); ridgeline never draws
@@ -202,6 +230,9 @@ fn main() -> std::process::ExitCode {
             .with_env_filter(filter)
             .with_writer(std::io::stderr)
             .init(),
+    }
+    if !matches!(cli.cmd, Cmd::Worker(_)) {
+        on_signal_clean_up_and_exit();
     }
     let id = job_id();
     let span = tracing::info_span!("job", job_id = %id);
@@ -434,6 +465,9 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
     let out = run_job(&a.sketch, &a.exemplars, &cfg).context("synthesis failed")?;
     let t = std::time::Instant::now();
     let cell = out.report.cell_size_m;
+    // every output is staged and they appear together at the commit below; an error on
+    // the way (or a signal) leaves every existing file as it was
+    let outputs = ridgeline_terrain::staging::Transaction::begin();
     ridgeline_terrain::outputs::write_heightfield_with_cell(&a.out, out.terrain(), cell)?;
     if let Some(n) = a.tiles {
         let idx = ridgeline_terrain::outputs::write_tiles(&a.out, out.terrain(), n, cell)?;
@@ -450,6 +484,13 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
     if let Some(p) = &a.report {
         ridgeline_terrain::io::write_atomic(p, &serde_json::to_vec_pretty(&report)?)?;
     }
+    let files = outputs.files().len();
+    if let Some(ms) = std::env::var("RIDGELINE_PAUSE_BEFORE_COMMIT_MS").ok().and_then(|v| v.parse().ok()) {
+        // for tests of the commit: holds the staged outputs so a signal can be sent
+        std::thread::sleep(std::time::Duration::from_millis(ms));
+    }
+    outputs.commit().context("committing the outputs")?;
+    tracing::debug!(files, "outputs committed");
     let total: f64 = report.stages.iter().filter(|s| s.stage != "round1_scoring").map(|s| s.seconds).sum();
     tracing::info!(out = %a.out.display(), seconds = total, "terrain written");
     for f in &report.fallbacks {

@@ -272,3 +272,129 @@ fn colliding_outputs_and_bad_settings_are_refused_before_any_work() {
         std::fs::read_dir(&d).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
     assert!(left.iter().all(|n| n == "sketch.png" || n == "lib"), "files written: {left:?}");
 }
+
+/// Every file under `d` (relative paths, sorted) with its bytes.
+fn snapshot(d: &Path) -> Vec<(String, Vec<u8>)> {
+    fn walk(root: &Path, d: &Path, out: &mut Vec<(String, Vec<u8>)>) {
+        for e in std::fs::read_dir(d).unwrap().flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                walk(root, &p, out);
+            } else {
+                out.push((p.strip_prefix(root).unwrap().to_string_lossy().into_owned(), std::fs::read(&p).unwrap()));
+            }
+        }
+    }
+    let mut out = Vec::new();
+    walk(d, d, &mut out);
+    out.sort();
+    out
+}
+
+/// A folder of earlier outputs a failed or interrupted job must leave as they were.
+fn earlier_outputs(d: &Path) -> PathBuf {
+    let outs = d.join("outs");
+    std::fs::create_dir_all(&outs).unwrap();
+    std::fs::write(outs.join("t.png"), b"an earlier terrain").unwrap();
+    std::fs::write(outs.join("t.json"), b"its sidecar").unwrap();
+    std::fs::write(outs.join("report.json"), b"an earlier report").unwrap();
+    outs
+}
+
+#[test]
+fn a_job_that_fails_while_writing_changes_no_file() {
+    let Some(data) = shared() else { return };
+    let d = tmp("late-failure");
+    let (lib, sketch) = (small_library(&d, &data), small_sketch(&d));
+    let outs = earlier_outputs(&d);
+    // the debug folder cannot be created (a file stands where its parent should be):
+    // found only when the debug outputs are written, after the terrain and the tiles
+    std::fs::write(d.join("blocker"), b"a file").unwrap();
+    let before = snapshot(&outs);
+    let (ok, err) = stderr_of(
+        bin()
+            .args(["synth", "--patch-size", "32", "--tiles", "17", "--sketch"])
+            .arg(&sketch)
+            .arg("--exemplars")
+            .arg(&lib)
+            .arg("--out")
+            .arg(outs.join("t.png"))
+            .arg("--report")
+            .arg(outs.join("report.json"))
+            .arg("--preview")
+            .arg(outs.join("preview.png"))
+            .arg("--debug-dir")
+            .arg(d.join("blocker/debug"))
+            .arg("--cache-dir")
+            .arg(d.join("cache")),
+    );
+    assert!(!ok, "the job should fail");
+    assert!(err.contains("blocker"), "the error names the path: {err}");
+    assert!(
+        snapshot(&outs) == before,
+        "a failed job changed or left files: {:?}",
+        snapshot(&outs).iter().map(|f| &f.0).collect::<Vec<_>>()
+    );
+}
+
+#[test]
+fn sigint_and_sigterm_stop_a_job_with_exit_130_and_leave_every_file_as_it_was() {
+    let Some(data) = shared() else { return };
+    let d = tmp("signals");
+    let (lib, sketch) = (small_library(&d, &data), small_sketch(&d));
+    // warm the feature cache, so each run below reaches its outputs quickly
+    let (ok, err) = stderr_of(
+        bin()
+            .args(["synth", "--patch-size", "32", "--sketch"])
+            .arg(&sketch)
+            .arg("--exemplars")
+            .arg(&lib)
+            .arg("--out")
+            .arg(d.join("warm.tif"))
+            .arg("--cache-dir")
+            .arg(d.join("cache")),
+    );
+    assert!(ok, "{err}");
+    for (signal, ignored_by_parent) in [("INT", true), ("TERM", false)] {
+        let outs = earlier_outputs(&d.join(signal));
+        let before = snapshot(&outs);
+        // a background run of a non-interactive shell inherits SIGINT ignored
+        let trap = if ignored_by_parent { "trap '' INT; " } else { "" };
+        let mut child = Command::new("sh")
+            .arg("-c")
+            .arg(format!("{trap}exec \"$0\" \"$@\""))
+            .arg(env!("CARGO_BIN_EXE_ridgeline"))
+            .args(["synth", "--patch-size", "32", "--tiles", "4", "--sketch"])
+            .arg(&sketch)
+            .arg("--exemplars")
+            .arg(&lib)
+            .arg("--out")
+            .arg(outs.join("t.png"))
+            .arg("--report")
+            .arg(outs.join("report.json"))
+            .arg("--cache-dir")
+            .arg(d.join("cache"))
+            .env("RIDGELINE_PAUSE_BEFORE_COMMIT_MS", "20000")
+            .env_remove("RUST_LOG")
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        // wait until the outputs are staged: thousands of tiles written as temporaries
+        let t = std::time::Instant::now();
+        let staged = |d: &Path| {
+            std::fs::read_dir(d).unwrap().flatten().filter(|e| e.file_name().to_string_lossy().ends_with(".tmp")).count()
+        };
+        while staged(&outs) < 1000 {
+            assert!(t.elapsed().as_secs() < 120, "no staged outputs appeared");
+            assert!(child.try_wait().unwrap().is_none(), "the job ended before its outputs were staged");
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        let kill = Command::new("kill").arg(format!("-{signal}")).arg(child.id().to_string()).status().unwrap();
+        assert!(kill.success());
+        let o = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(130), "SIG{signal}: {err}");
+        assert!(err.contains(&format!("interrupted by SIG{signal}")), "{err}");
+        assert!(snapshot(&outs) == before, "SIG{signal} left {:?}", snapshot(&outs).iter().map(|f| &f.0).collect::<Vec<_>>());
+    }
+}

@@ -9,7 +9,7 @@ use crate::error::{Result, TerrainError};
 use crate::grid::{Grid, Heightfield};
 pub use crate::outputs::{encode_tiff_f32, write_heightfield, Png16Sidecar};
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Default largest accepted image side, checked before any pixel buffer is allocated.
 pub const DEFAULT_MAX_SIDE: u32 = 32768;
@@ -120,7 +120,8 @@ pub fn read_sketch(path: &Path, max_side: u32) -> Result<Grid<u8>> {
     decode_sketch(path, &read_bytes(path)?, max_side)
 }
 
-/// Writes `bytes` to `path` atomically (temporary file in the same folder, fsync, rename).
+/// Writes `bytes` to `path` atomically (temporary file in the same folder, fsync, rename;
+/// inside a [`crate::staging::Transaction`] the rename waits for its commit).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     write_atomic_with(path, |f| f.write_all(bytes))
 }
@@ -133,21 +134,19 @@ pub fn write_atomic_with(
     produce: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> std::io::Result<()>,
 ) -> Result<()> {
     let werr = |source: std::io::Error| TerrainError::Write { path: path.to_path_buf(), cause: source.into() };
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let name = path.file_name().ok_or_else(|| TerrainError::Other(format!("{}: not a file path", path.display())))?;
-    let tmp = dir.join(format!(".{}.{}.tmp", name.to_string_lossy(), std::process::id()));
+    if path.file_name().is_none() {
+        return Err(TerrainError::Other(format!("{}: not a file path", path.display())));
+    }
+    let (tmp, file) = crate::staging::create_temp_for(path).map_err(werr)?;
     let result = (|| {
-        let mut f = std::io::BufWriter::with_capacity(1 << 20, std::fs::File::create(&tmp)?);
+        let mut f = std::io::BufWriter::with_capacity(1 << 20, file);
         produce(&mut f)?;
         let f = f.into_inner().map_err(|e| e.into_error())?;
         f.sync_all()?;
-        std::fs::rename(&tmp, path)
+        crate::staging::finish(&tmp, path)
     })();
     if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
+        crate::staging::discard(&tmp);
         return Err(werr(e));
     }
     Ok(())

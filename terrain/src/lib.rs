@@ -12,6 +12,7 @@ pub mod library;
 pub mod outputs;
 pub mod patch_geometry;
 pub mod shard;
+pub mod staging;
 
 pub use error::{Result, TerrainError};
 pub use feature_extraction::{FeatureGraph, FeatureKind, PpaParams};
