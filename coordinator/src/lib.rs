@@ -9,6 +9,7 @@ pub mod feature_placement;
 pub mod fetch_dem;
 pub mod graph_cut;
 pub mod hole_filling;
+pub mod memory_budget;
 pub mod merge;
 pub mod pipeline;
 pub mod poisson;

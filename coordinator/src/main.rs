@@ -140,6 +140,11 @@ struct SynthArgs {
     /// included: for testing). The output bytes do not depend on it.
     #[arg(long, default_value = "auto")]
     gpu: ridgeline_worker::GpuMode,
+    /// Memory budget (512M, 8G, 1.5GiB): a job estimated to need more is refused
+    /// before any work, saying how much it needs. Default: the memory available now
+    /// (MemAvailable, or the container's limit).
+    #[arg(long, value_parser = ridgeline::memory_budget::parse_size)]
+    max_memory: Option<u64>,
 }
 
 #[derive(clap::Args)]
@@ -460,6 +465,7 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
         progress: if interactive { progress_bars() } else { Progress::default() },
         keep_features_only: a.debug_dir.is_some(),
         gpu: a.gpu,
+        max_memory: a.max_memory,
         ..SynthConfig::default()
     };
     let out = run_job(&a.sketch, &a.exemplars, &cfg).context("synthesis failed")?;

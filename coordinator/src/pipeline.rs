@@ -104,6 +104,9 @@ pub struct SynthConfig {
     pub keep_features_only: bool,
     /// What in-process shards score on (`--gpu`); the output bytes do not depend on it.
     pub gpu: GpuMode,
+    /// Memory budget in bytes (`--max-memory`); `None`: the memory available now. A job
+    /// estimated to need more is refused before any work (`memory_budget`).
+    pub max_memory: Option<u64>,
 }
 
 /// A progress callback: `(stage, done, total)`.
@@ -144,6 +147,7 @@ impl Default for SynthConfig {
             keep_features_only: false,
             max_batch: 0,
             gpu: GpuMode::Auto,
+            max_memory: None,
         }
     }
 }
@@ -161,6 +165,8 @@ pub enum SynthError {
     Fill(#[from] FillError),
     #[error("invalid settings: {0}")]
     Config(String),
+    #[error("{0}")]
+    Memory(String),
     #[error("thread pool: {0}")]
     Threads(String),
     #[error(transparent)]
@@ -312,6 +318,7 @@ pub fn run_job(sketch_path: &Path, exemplar_dir: &Path, cfg: &SynthConfig) -> Re
     let _job =
         tracing::info_span!("synth", sketch = %sketch_path.display(), exemplars = %exemplar_dir.display(), seed = cfg.seed)
             .entered();
+    check_memory(sketch_path, exemplar_dir, cfg)?;
     let sketch = ridgeline_terrain::io::read_sketch(sketch_path, cfg.max_side)?;
     let t = Instant::now();
     let (shards, cell) = {
@@ -330,6 +337,23 @@ pub fn run_job(sketch_path: &Path, exemplar_dir: &Path, cfg: &SynthConfig) -> Re
     out.report.cell_size_m = cell;
     out.report.stages.insert(0, StageTiming { stage: "exemplars", seconds: load_s });
     Ok(out)
+}
+
+/// Refuses, before any work, a job whose estimated peak memory exceeds its budget.
+/// A sketch or library that cannot be read is left for the readers to report.
+fn check_memory(sketch_path: &Path, exemplar_dir: &Path, cfg: &SynthConfig) -> Result<(), SynthError> {
+    let Ok((w, h)) = image::image_dimensions(sketch_path) else { return Ok(()) };
+    let library_cells: u64 = match (&cfg.cluster, scan_library(exemplar_dir)) {
+        (None, Ok(specs)) => {
+            let cell = cfg.cell_size.or_else(|| common_cell_size(&specs));
+            specs.iter().map(|s| s.cells_at(cell)).sum()
+        }
+        _ => 0,
+    };
+    let est = crate::memory_budget::check(sketch_path, w as u64, h as u64, library_cells, cfg.max_memory)
+        .map_err(SynthError::Memory)?;
+    tracing::info!(estimated_peak_mb = est.total() >> 20, "memory estimate");
+    Ok(())
 }
 
 fn validate(cfg: &SynthConfig) -> Result<(), SynthError> {

@@ -398,3 +398,40 @@ fn sigint_and_sigterm_stop_a_job_with_exit_130_and_leave_every_file_as_it_was() 
         assert!(snapshot(&outs) == before, "SIG{signal} left {:?}", snapshot(&outs).iter().map(|f| &f.0).collect::<Vec<_>>());
     }
 }
+
+#[test]
+fn a_job_over_its_memory_budget_is_refused_before_any_work_saying_what_it_needs() {
+    let Some(data) = shared() else { return };
+    let d = tmp("memory");
+    let lib = small_library(&d, &data);
+    // a blank 20000 x 20000 sketch: a small file, a 4.5 GiB job
+    let big = d.join("big.png");
+    image::GrayImage::from_pixel(20000, 20000, image::Luma([128u8])).save(&big).unwrap();
+    let outs = earlier_outputs(&d);
+    let before = snapshot(&outs);
+    let t = std::time::Instant::now();
+    let (ok, err) = stderr_of(
+        bin()
+            .args(["synth", "--max-memory", "1G", "--sketch"])
+            .arg(&big)
+            .arg("--exemplars")
+            .arg(&lib)
+            .arg("--out")
+            .arg(outs.join("t.png")),
+    );
+    assert!(!ok);
+    assert!(err.contains("big.png") && err.contains("20000 x 20000") && err.contains("needs about 4.5 GiB"), "{err}");
+    assert!(err.contains("--max-memory budget (1.0 GiB)"), "{err}");
+    assert!(t.elapsed().as_secs() < 10, "refused only after work");
+    assert!(snapshot(&outs) == before);
+    let (ok, err) = stderr_of(
+        bin()
+            .args(["synth", "--max-memory", "lots", "--sketch"])
+            .arg(&big)
+            .arg("--exemplars")
+            .arg(&lib)
+            .arg("--out")
+            .arg(outs.join("t.png")),
+    );
+    assert!(!ok && err.contains("'lots'"), "{err}");
+}

@@ -23,6 +23,30 @@ impl ExemplarSpec {
     pub fn name(&self) -> String {
         self.path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default()
     }
+
+    /// The exemplar's area in cells once resampled to the output cell size `out_cell`
+    /// (its own cells where either cell size is unknown), from its header where the
+    /// format has one (PNG), else by reading it; 1 where it cannot be read. An
+    /// estimate for planning: shard balancing and memory budgets.
+    pub fn cells_at(&self, out_cell: Option<f32>) -> u64 {
+        let (w, h) = self.header_size().unwrap_or((1, 1));
+        let f = match (self.cell_size_m.or_else(|| crate::dem_formats::probe_cell_size(&self.path)), out_cell) {
+            (Some(s), Some(o)) if o > 0.0 => (s / o) as f64,
+            _ => 1.0,
+        };
+        ((w as f64 * f) * (h as f64 * f)).max(1.0) as u64
+    }
+
+    fn header_size(&self) -> Option<(usize, usize)> {
+        let ext = self.path.extension()?.to_string_lossy().to_ascii_lowercase();
+        if ext == "png" {
+            let r = image::ImageReader::open(&self.path).ok()?.with_guessed_format().ok()?;
+            let (w, h) = r.into_dimensions().ok()?;
+            return Some((w as usize, h as usize));
+        }
+        let d = crate::dem_formats::read_dem(&self.path, None, crate::io::DEFAULT_MAX_SIDE).ok()?;
+        Some((d.heights.width, d.heights.height))
+    }
 }
 
 fn unit_factor(unit: &str, path: &Path) -> Result<f32> {

@@ -69,27 +69,6 @@ pub fn plan_shards(weights: &[u64], capacities: &[f64]) -> Vec<Vec<usize>> {
     shards
 }
 
-/// An exemplar's area in output cells, from its header.
-fn area_estimate(spec: &ExemplarSpec, out_cell: Option<f32>) -> u64 {
-    let (w, h) = header_size(spec).unwrap_or((1, 1));
-    let f = match (spec.cell_size_m.or_else(|| ridgeline_terrain::dem_formats::probe_cell_size(&spec.path)), out_cell) {
-        (Some(s), Some(o)) if o > 0.0 => (s / o) as f64,
-        _ => 1.0,
-    };
-    ((w as f64 * f) * (h as f64 * f)).max(1.0) as u64
-}
-
-fn header_size(spec: &ExemplarSpec) -> Option<(usize, usize)> {
-    let ext = spec.path.extension()?.to_string_lossy().to_ascii_lowercase();
-    if ext == "png" {
-        let r = image::ImageReader::open(&spec.path).ok()?.with_guessed_format().ok()?;
-        let (w, h) = r.into_dimensions().ok()?;
-        return Some((w as usize, h as usize));
-    }
-    let d = ridgeline_terrain::dem_formats::read_dem(&spec.path, None, ridgeline_terrain::io::DEFAULT_MAX_SIDE).ok()?;
-    Some((d.heights.width, d.heights.height))
-}
-
 /// Candidate counts per exemplar seen by earlier jobs, kept in the coordinator's cache
 /// folder (`candidate-counts.json`, keyed by content hash, patch and cell size).
 fn counts_path(cache: &Path) -> PathBuf {
@@ -116,7 +95,7 @@ pub fn remote_shards(
     let ex = remote_exemplars(items).map_err(|e| ShardError::BadRequest(e.to_string()))?;
     let mut known: BTreeMap<String, u64> =
         cache.and_then(|c| std::fs::read(counts_path(c)).ok()).and_then(|b| serde_json::from_slice(&b).ok()).unwrap_or_default();
-    let areas: Vec<u64> = items.iter().map(|(_, s)| area_estimate(s, out_cell)).collect();
+    let areas: Vec<u64> = items.iter().map(|(_, s)| s.cells_at(out_cell)).collect();
     let ratios: Vec<f64> = ex
         .iter()
         .zip(&areas)
