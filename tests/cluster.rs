@@ -1,6 +1,6 @@
 //! The cluster with real worker processes on 127.0.0.1: identical bytes in-process and
 //! on 1 and 3 workers, a worker killed (SIGKILL) mid-job, all workers lost, a wrong
-//! token, and malformed requests.
+//! token, malformed requests, sockets held half-open, an unusable data dir.
 
 use ridgeline::cluster::{Cluster, ClusterConfig};
 use ridgeline::pipeline::{run_job, SynthConfig};
@@ -107,6 +107,67 @@ fn a_wrong_token_is_refused() {
 }
 
 #[test]
+fn a_wrong_token_is_logged_with_the_caller() {
+    let d = temp_dir("cluster-token-log");
+    let w = WorkerProc::start(&d.join("w"), Some(TOKEN));
+    let cfg = ClusterConfig { workers: vec![w.url.clone()], token: Some("wrong".into()), ..Default::default() };
+    assert!(Cluster::connect(cfg).is_err());
+    let refused = wait_for_log(&w, |l| l.contains("call refused"));
+    assert!(refused.contains("caller=127.0.0.1:") && refused.contains("token"), "{refused}");
+}
+
+/// The first log line of `w` that `want` accepts, waiting up to 20 s.
+fn wait_for_log(w: &WorkerProc, want: impl Fn(&str) -> bool) -> String {
+    let t = std::time::Instant::now();
+    while t.elapsed().as_secs() < 20 {
+        if let Ok(l) = w.log.recv_timeout(std::time::Duration::from_millis(200)) {
+            if want(&l) {
+                return l;
+            }
+        }
+    }
+    panic!("no such worker log line");
+}
+
+#[test]
+fn sockets_held_half_open_do_not_stop_a_job_and_are_closed() {
+    use std::io::{Read, Write};
+    let Some(data) = shared_data() else { return };
+    let d = temp_dir("cluster-half-open");
+    let w = WorkerProc::start_with(&d.join("w"), Some(TOKEN), &["--gpu", "off", "--handshake-timeout-s", "2"]);
+    let addr = w.url.trim_start_matches("http://").to_string();
+    // more silent sockets than may wait for a handshake, and some that send junk
+    let mut silent: Vec<std::net::TcpStream> = (0..300).map(|_| std::net::TcpStream::connect(&addr).unwrap()).collect();
+    for _ in 0..10 {
+        let mut junk = std::net::TcpStream::connect(&addr).unwrap();
+        let _ = junk.write_all(b"GET / HTTP/1.1\r\nHost: x\r\n\r\n");
+        silent.push(junk);
+    }
+    let cfg = ClusterConfig {
+        workers: vec![w.url.clone()],
+        token: Some(TOKEN.into()),
+        job_id: Some("job-under-siege".into()),
+        ..Default::default()
+    };
+    let cluster = Cluster::connect(cfg).expect("the coordinator gets through");
+    job(&data, &d.join("cache"), Some(cluster)).expect("the job completes");
+    // the silent ones are closed by the worker once the handshake timeout passes
+    std::thread::sleep(std::time::Duration::from_secs(3));
+    let mut closed = 0;
+    for s in &mut silent[..300] {
+        s.set_read_timeout(Some(std::time::Duration::from_secs(2))).unwrap();
+        let mut b = [0u8; 8];
+        if matches!(s.read(&mut b), Ok(0) | Err(_)) {
+            closed += 1;
+        }
+    }
+    assert_eq!(closed, 300, "silent sockets still open");
+    // refusals are logged with the caller, and the job's calls with its id
+    wait_for_log(&w, |l| l.contains("connection refused") && l.contains("caller=127.0.0.1:"));
+    wait_for_log(&w, |l| l.contains("job_id=job-under-siege") && l.contains("block answered"));
+}
+
+#[test]
 fn a_worker_refuses_to_serve_a_public_address_without_a_token() {
     let o = std::process::Command::new(ridgeline_tests::ridgeline_bin())
         .args(["worker", "--listen", "0.0.0.0:0"])
@@ -115,6 +176,22 @@ fn a_worker_refuses_to_serve_a_public_address_without_a_token() {
         .unwrap();
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("token"));
+}
+
+#[test]
+fn a_worker_with_an_unusable_data_dir_says_which_before_it_listens() {
+    let d = temp_dir("cluster-data-dir");
+    std::fs::write(d.join("file"), b"not a folder").unwrap();
+    let o = std::process::Command::new(ridgeline_tests::ridgeline_bin())
+        .args(["worker", "--listen", "127.0.0.1:0", "--gpu", "off", "--data-dir"])
+        .arg(d.join("file/data"))
+        .env_remove("RIDGELINE_TOKEN")
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(!String::from_utf8_lossy(&o.stdout).contains("listening"), "it said it listens");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("file/data"), "the error names the path: {err}");
 }
 
 #[test]

@@ -66,6 +66,15 @@ struct WorkerArgs {
     /// testing). The output bytes do not depend on it.
     #[arg(long, default_value = "auto")]
     gpu: ridgeline_worker::GpuMode,
+    /// Seconds a new connection may stay silent before it is closed.
+    #[arg(long, default_value_t = 10)]
+    handshake_timeout_s: u64,
+    /// Most established connections (a connection over it is closed and logged), and
+    /// most from one caller address.
+    #[arg(long, default_value_t = 256)]
+    max_connections: usize,
+    #[arg(long, default_value_t = 64)]
+    max_per_caller: usize,
 }
 
 #[derive(clap::Args)]
@@ -175,6 +184,9 @@ struct FetchArgs {
     max_tiles: usize,
 }
 
+/// This run's job id (logs, and the header of every worker call).
+static JOB_ID: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+
 fn job_id() -> String {
     let t = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_nanos()).unwrap_or(0);
     format!("{:012x}", (t as u64 ^ ((std::process::id() as u64) << 40)) & 0xffff_ffff_ffff)
@@ -240,6 +252,7 @@ fn main() -> std::process::ExitCode {
         on_signal_clean_up_and_exit();
     }
     let id = job_id();
+    let _ = JOB_ID.set(id.clone());
     let span = tracing::info_span!("job", job_id = %id);
     let _g = span.enter();
     let human = cli.log_format == LogFormat::Text;
@@ -319,7 +332,15 @@ fn worker(a: WorkerArgs) -> Result<()> {
         max_shards: 8,
         threads: a.threads,
         gpu: ridgeline_worker::GpuContext::open(a.gpu)?,
+        connections: ridgeline_worker::connection_guard::Limits {
+            handshake_timeout: std::time::Duration::from_secs(a.handshake_timeout_s.max(1)),
+            max_pending: 256,
+            max_connections: a.max_connections.max(1),
+            max_per_caller: a.max_per_caller.max(1),
+        },
     };
+    // find out that the data dir is unusable before telling anyone we listen
+    ridgeline_worker::grpc_service::check_data_dir(&data_dir).map_err(|e| anyhow::anyhow!("{e}"))?;
     let tls = match (a.tls_cert, a.tls_key) {
         (Some(cert), Some(key)) => Some(ridgeline_worker::grpc_service::TlsFiles { cert, key }),
         _ => None,
@@ -449,6 +470,7 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
             token: a.token.clone(),
             tls_ca: a.tls_ca.clone(),
             call_timeout: std::time::Duration::from_secs(a.call_timeout_s.max(1)),
+            job_id: JOB_ID.get().cloned(),
             ..Default::default()
         };
         Some(ridgeline::cluster::Cluster::connect(ccfg)?)

@@ -22,6 +22,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use tonic::{Request, Response, Status, Streaming};
+use tracing::Instrument;
 
 /// Extensions an uploaded exemplar may have.
 const EXTENSIONS: [&str; 5] = ["png", "tif", "tiff", "hgt", "asc"];
@@ -37,6 +38,19 @@ pub struct WorkerConfig {
     pub threads: usize,
     /// The device shards are scored on; `None`: the CPU.
     pub gpu: Option<Arc<crate::GpuContext>>,
+    /// Connection limits (handshake timeout, caps).
+    pub connections: crate::connection_guard::Limits,
+}
+
+/// Checks that `data_dir` can hold exemplars and features (creating it if needed and
+/// writing a probe file), so a worker never starts serving on a folder it cannot use.
+pub fn check_data_dir(data_dir: &Path) -> Result<(), String> {
+    let exemplars = data_dir.join("exemplars");
+    std::fs::create_dir_all(&exemplars).map_err(|e| format!("data dir {}: {e}", exemplars.display()))?;
+    let probe = exemplars.join(format!(".probe-{}", std::process::id()));
+    std::fs::write(&probe, b"ridgeline").map_err(|e| format!("data dir {}: cannot write: {e}", exemplars.display()))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
 }
 
 struct Loaded {
@@ -64,7 +78,7 @@ pub struct WorkerService {
 
 impl WorkerService {
     pub fn new(cfg: WorkerConfig) -> std::io::Result<Self> {
-        std::fs::create_dir_all(cfg.data_dir.join("exemplars"))?;
+        check_data_dir(&cfg.data_dir).map_err(std::io::Error::other)?;
         let pool = rayon::ThreadPoolBuilder::new().num_threads(cfg.threads).build().map_err(std::io::Error::other)?;
         Ok(WorkerService { cfg, shards: Arc::new(Mutex::new(Vec::new())), pool: Arc::new(pool) })
     }
@@ -102,209 +116,269 @@ pub fn check_token(expected: &Option<String>, req: &Request<()>) -> Result<(), S
     if diff == 0 && a.len() == b.len() {
         Ok(())
     } else {
+        let caller = req.remote_addr().map(|a| a.to_string()).unwrap_or_else(|| "unknown".into());
+        tracing::warn!(%caller, job_id = %job_of(req), reason = "missing or wrong cluster token", "call refused");
         Err(Status::unauthenticated("missing or wrong cluster token"))
     }
 }
 
+/// Metadata key carrying the coordinator's job id on every call.
+pub const JOB_ID_HEADER: &str = "x-ridgeline-job";
+
+/// The coordinator's job id of a call ("-" where it sent none).
+pub fn job_of<T>(req: &Request<T>) -> String {
+    req.metadata()
+        .get(JOB_ID_HEADER)
+        .and_then(|v| v.to_str().ok())
+        .filter(|v| v.len() <= 64)
+        .map(str::to_string)
+        .unwrap_or_else(|| "-".into())
+}
+
+/// The span every event of a call is logged in: the coordinator's job id, the caller.
+fn call_span<T>(req: &Request<T>, call: &'static str) -> tracing::Span {
+    let caller = req.remote_addr().map(|a| a.to_string()).unwrap_or_else(|| "unknown".into());
+    tracing::info_span!("call", call, job_id = %job_of(req), %caller)
+}
+
 #[tonic::async_trait]
 impl Worker for WorkerService {
-    async fn capabilities(&self, _r: Request<v1::CapabilitiesRequest>) -> Result<Response<v1::CapabilitiesReply>, Status> {
-        Ok(Response::new(v1::CapabilitiesReply {
-            protocol_version: PROTOCOL_VERSION,
-            backend: self.backend_info().backend.into(),
-            adapter: self.backend_info().adapter,
-            max_buffer_bytes: self.backend_info().max_buffer_bytes,
-            gpu_memory_bytes: self.backend_info().memory_bytes,
-            threads: self.pool.current_num_threads() as u32,
-            memory_bytes: system_memory(),
-            version: env!("CARGO_PKG_VERSION").into(),
-        }))
+    async fn capabilities(&self, r: Request<v1::CapabilitiesRequest>) -> Result<Response<v1::CapabilitiesReply>, Status> {
+        let span = call_span(&r, "capabilities");
+        async move {
+            Ok(Response::new(v1::CapabilitiesReply {
+                protocol_version: PROTOCOL_VERSION,
+                backend: self.backend_info().backend.into(),
+                adapter: self.backend_info().adapter,
+                max_buffer_bytes: self.backend_info().max_buffer_bytes,
+                gpu_memory_bytes: self.backend_info().memory_bytes,
+                threads: self.pool.current_num_threads() as u32,
+                memory_bytes: system_memory(),
+                version: env!("CARGO_PKG_VERSION").into(),
+            }))
+        }
+        .instrument(span)
+        .await
     }
 
     async fn missing_exemplars(&self, r: Request<v1::MissingRequest>) -> Result<Response<v1::MissingReply>, Status> {
-        let r = r.into_inner();
-        if r.content_hashes.len() > 100_000 {
-            return Err(Status::invalid_argument("too many hashes"));
-        }
-        let mut missing = Vec::new();
-        for h in r.content_hashes {
-            if !is_content_hash(&h) {
-                return Err(Status::invalid_argument(format!("'{h}' is not a content hash")));
+        let span = call_span(&r, "missing_exemplars");
+        async move {
+            let r = r.into_inner();
+            if r.content_hashes.len() > 100_000 {
+                return Err(Status::invalid_argument("too many hashes"));
             }
-            if self.exemplar_path(&h).is_none() {
-                missing.push(h);
+            let mut missing = Vec::new();
+            for h in r.content_hashes {
+                if !is_content_hash(&h) {
+                    return Err(Status::invalid_argument(format!("'{h}' is not a content hash")));
+                }
+                if self.exemplar_path(&h).is_none() {
+                    missing.push(h);
+                }
             }
+            Ok(Response::new(v1::MissingReply { content_hashes: missing }))
         }
-        Ok(Response::new(v1::MissingReply { content_hashes: missing }))
+        .instrument(span)
+        .await
     }
 
     async fn put_exemplar(&self, r: Request<Streaming<v1::ExemplarChunk>>) -> Result<Response<v1::PutReply>, Status> {
-        let mut stream = r.into_inner();
-        let first = stream.message().await?.ok_or_else(|| Status::invalid_argument("empty upload"))?;
-        let (hash, ext, total) = (first.content_hash.clone(), first.extension.to_ascii_lowercase(), first.total_size);
-        if !is_content_hash(&hash) {
-            return Err(Status::invalid_argument("bad content hash"));
-        }
-        if !EXTENSIONS.contains(&ext.as_str()) {
-            return Err(Status::invalid_argument(format!("extension '{ext}' is not a DEM format")));
-        }
-        if total > self.cfg.max_exemplar_bytes {
-            return Err(Status::invalid_argument(format!("{total} bytes exceeds the limit of {}", self.cfg.max_exemplar_bytes)));
-        }
-        let dir = self.cfg.data_dir.join("exemplars");
-        let tmp = dir.join(format!(".upload-{hash}-{}.tmp", std::process::id()));
-        let mut file = std::fs::File::create(&tmp).map_err(|e| Status::internal(format!("data dir: {e}")))?;
-        let mut hasher = Sha256::new();
-        let mut size = 0u64;
-        let mut chunk = Some(first);
-        let result: Result<(), Status> = async {
-            while let Some(c) = chunk.take() {
-                size += c.data.len() as u64;
-                if size > total {
-                    return Err(Status::invalid_argument("upload longer than announced"));
+        let span = call_span(&r, "put_exemplar");
+        async move {
+            let mut stream = r.into_inner();
+            let first = stream.message().await?.ok_or_else(|| Status::invalid_argument("empty upload"))?;
+            let (hash, ext, total) = (first.content_hash.clone(), first.extension.to_ascii_lowercase(), first.total_size);
+            if !is_content_hash(&hash) {
+                return Err(Status::invalid_argument("bad content hash"));
+            }
+            if !EXTENSIONS.contains(&ext.as_str()) {
+                return Err(Status::invalid_argument(format!("extension '{ext}' is not a DEM format")));
+            }
+            if total > self.cfg.max_exemplar_bytes {
+                return Err(Status::invalid_argument(format!(
+                    "{total} bytes exceeds the limit of {}",
+                    self.cfg.max_exemplar_bytes
+                )));
+            }
+            let dir = self.cfg.data_dir.join("exemplars");
+            let tmp = dir.join(format!(".upload-{hash}-{}.tmp", std::process::id()));
+            let mut file = std::fs::File::create(&tmp).map_err(|e| Status::internal(format!("data dir: {e}")))?;
+            let mut hasher = Sha256::new();
+            let mut size = 0u64;
+            let mut chunk = Some(first);
+            let result: Result<(), Status> = async {
+                while let Some(c) = chunk.take() {
+                    size += c.data.len() as u64;
+                    if size > total {
+                        return Err(Status::invalid_argument("upload longer than announced"));
+                    }
+                    hasher.update(&c.data);
+                    file.write_all(&c.data).map_err(|e| Status::internal(format!("data dir: {e}")))?;
+                    chunk = stream.message().await?;
                 }
-                hasher.update(&c.data);
-                file.write_all(&c.data).map_err(|e| Status::internal(format!("data dir: {e}")))?;
-                chunk = stream.message().await?;
+                if size != total {
+                    return Err(Status::invalid_argument(format!("upload ended after {size} of {total} bytes")));
+                }
+                let got: String = hasher.finalize_reset().iter().map(|b| format!("{b:02x}")).collect();
+                if got != hash {
+                    return Err(Status::invalid_argument("content does not match its hash"));
+                }
+                file.sync_all().map_err(|e| Status::internal(e.to_string()))?;
+                std::fs::rename(&tmp, dir.join(format!("{hash}.{ext}"))).map_err(|e| Status::internal(e.to_string()))
             }
-            if size != total {
-                return Err(Status::invalid_argument(format!("upload ended after {size} of {total} bytes")));
+            .await;
+            if result.is_err() {
+                let _ = std::fs::remove_file(&tmp);
             }
-            let got: String = hasher.finalize_reset().iter().map(|b| format!("{b:02x}")).collect();
-            if got != hash {
-                return Err(Status::invalid_argument("content does not match its hash"));
-            }
-            file.sync_all().map_err(|e| Status::internal(e.to_string()))?;
-            std::fs::rename(&tmp, dir.join(format!("{hash}.{ext}"))).map_err(|e| Status::internal(e.to_string()))
+            result?;
+            tracing::info!(hash = %hash, bytes = size, "exemplar stored");
+            Ok(Response::new(v1::PutReply { content_hash: hash }))
         }
-        .await;
-        if result.is_err() {
-            let _ = std::fs::remove_file(&tmp);
-        }
-        result?;
-        tracing::info!(hash = %hash, bytes = size, "exemplar stored");
-        Ok(Response::new(v1::PutReply { content_hash: hash }))
+        .instrument(span)
+        .await
     }
 
     async fn load_shard(&self, r: Request<v1::LoadShardRequest>) -> Result<Response<v1::LoadShardReply>, Status> {
-        let r = r.into_inner();
-        if r.patch < 8 || r.patch > 512 || !r.patch.is_multiple_of(2) {
-            return Err(Status::invalid_argument(format!("patch size {} must be even and within 8..=512", r.patch)));
-        }
-        if r.shard_key.is_empty() || r.shard_key.len() > 256 || r.exemplars.len() > 100_000 {
-            return Err(Status::invalid_argument("bad shard key or exemplar count"));
-        }
-        if let Some(c) = r.out_cell {
-            if !(c.is_finite() && c > 0.0) {
-                return Err(Status::invalid_argument("out_cell must be positive"));
+        let span = call_span(&r, "load_shard");
+        async move {
+            let r = r.into_inner();
+            if r.patch < 8 || r.patch > 512 || !r.patch.is_multiple_of(2) {
+                return Err(Status::invalid_argument(format!("patch size {} must be even and within 8..=512", r.patch)));
             }
-        }
-        let digest: Vec<u8> = Sha256::digest(format!("{r:?}").as_bytes()).to_vec();
-        {
-            let shards = self.shards.lock().map_err(|_| Status::internal("poisoned"))?;
-            if let Some((_, l)) = shards.iter().find(|(k, l)| *k == r.shard_key && l.digest == digest) {
-                return Ok(Response::new(v1::LoadShardReply {
-                    sources: l.shard.sources().iter().map(source_to_wire).collect(),
-                    skipped: l.shard.skipped().iter().map(skipped_to_wire).collect(),
-                }));
+            if r.shard_key.is_empty() || r.shard_key.len() > 256 || r.exemplars.len() > 100_000 {
+                return Err(Status::invalid_argument("bad shard key or exemplar count"));
             }
-        }
-        let mut items = Vec::new();
-        for e in &r.exemplars {
-            if !is_content_hash(&e.content_hash) {
-                return Err(Status::invalid_argument("bad content hash"));
+            if let Some(c) = r.out_cell {
+                if !(c.is_finite() && c > 0.0) {
+                    return Err(Status::invalid_argument("out_cell must be positive"));
+                }
             }
-            let path = self
-                .exemplar_path(&e.content_hash)
-                .ok_or_else(|| Status::failed_precondition(format!("exemplar {} ({}) not uploaded", e.name, e.content_hash)))?;
-            if !(e.to_metres.is_finite() && e.to_metres > 0.0) {
-                return Err(Status::invalid_argument("to_metres must be positive"));
+            let digest: Vec<u8> = Sha256::digest(format!("{r:?}").as_bytes()).to_vec();
+            {
+                let shards = self.shards.lock().map_err(|_| Status::internal("poisoned"))?;
+                if let Some((_, l)) = shards.iter().find(|(k, l)| *k == r.shard_key && l.digest == digest) {
+                    return Ok(Response::new(v1::LoadShardReply {
+                        sources: l.shard.sources().iter().map(source_to_wire).collect(),
+                        skipped: l.shard.skipped().iter().map(skipped_to_wire).collect(),
+                    }));
+                }
             }
-            items.push((e.source, ExemplarSpec { path, cell_size_m: e.cell_size_m, to_metres: e.to_metres, nodata: e.nodata }));
+            let mut items = Vec::new();
+            for e in &r.exemplars {
+                if !is_content_hash(&e.content_hash) {
+                    return Err(Status::invalid_argument("bad content hash"));
+                }
+                let path = self.exemplar_path(&e.content_hash).ok_or_else(|| {
+                    Status::failed_precondition(format!("exemplar {} ({}) not uploaded", e.name, e.content_hash))
+                })?;
+                if !(e.to_metres.is_finite() && e.to_metres > 0.0) {
+                    return Err(Status::invalid_argument("to_metres must be positive"));
+                }
+                items.push((
+                    e.source,
+                    ExemplarSpec { path, cell_size_m: e.cell_size_m, to_metres: e.to_metres, nodata: e.nodata },
+                ));
+            }
+            let cfg = ShardConfig {
+                patch: r.patch as usize,
+                out_cell: r.out_cell,
+                max_side: ridgeline_terrain::io::DEFAULT_MAX_SIDE,
+                cache: Some(FeatureCache::new(self.cfg.data_dir.join("features"))),
+                gpu: self.cfg.gpu.clone(),
+            };
+            let pool = self.pool.clone();
+            let names: BTreeMap<String, String> = r.exemplars.iter().map(|e| (e.content_hash.clone(), e.name.clone())).collect();
+            let span = tracing::Span::current();
+            let shard =
+                tokio::task::spawn_blocking(move || pool.install(|| span.in_scope(|| InProcessShard::load(&items, &cfg))))
+                    .await
+                    .map_err(|e| Status::internal(e.to_string()))?;
+            let shard = Arc::new(shard.with_names(&names));
+            let reply = v1::LoadShardReply {
+                sources: shard.sources().iter().map(source_to_wire).collect(),
+                skipped: shard.skipped().iter().map(skipped_to_wire).collect(),
+            };
+            tracing::info!(shard = %r.shard_key, sources = reply.sources.len(), "shard loaded");
+            let mut shards = self.shards.lock().map_err(|_| Status::internal("poisoned"))?;
+            shards.retain(|(k, _)| *k != r.shard_key);
+            shards.push((r.shard_key, Loaded { digest, shard }));
+            while shards.len() > self.cfg.max_shards.max(1) {
+                shards.remove(0);
+            }
+            Ok(Response::new(reply))
         }
-        let cfg = ShardConfig {
-            patch: r.patch as usize,
-            out_cell: r.out_cell,
-            max_side: ridgeline_terrain::io::DEFAULT_MAX_SIDE,
-            cache: Some(FeatureCache::new(self.cfg.data_dir.join("features"))),
-            gpu: self.cfg.gpu.clone(),
-        };
-        let pool = self.pool.clone();
-        let names: BTreeMap<String, String> = r.exemplars.iter().map(|e| (e.content_hash.clone(), e.name.clone())).collect();
-        let shard = tokio::task::spawn_blocking(move || pool.install(|| InProcessShard::load(&items, &cfg)))
-            .await
-            .map_err(|e| Status::internal(e.to_string()))?;
-        let shard = Arc::new(shard.with_names(&names));
-        let reply = v1::LoadShardReply {
-            sources: shard.sources().iter().map(source_to_wire).collect(),
-            skipped: shard.skipped().iter().map(skipped_to_wire).collect(),
-        };
-        tracing::info!(shard = %r.shard_key, sources = reply.sources.len(), "shard loaded");
-        let mut shards = self.shards.lock().map_err(|_| Status::internal("poisoned"))?;
-        shards.retain(|(k, _)| *k != r.shard_key);
-        shards.push((r.shard_key, Loaded { digest, shard }));
-        while shards.len() > self.cfg.max_shards.max(1) {
-            shards.remove(0);
-        }
-        Ok(Response::new(reply))
+        .instrument(span)
+        .await
     }
 
     type ScoreStream = tokio_stream::wrappers::ReceiverStream<Result<v1::ScoreReply, Status>>;
 
     async fn score(&self, r: Request<Streaming<v1::ScoreRequest>>) -> Result<Response<Self::ScoreStream>, Status> {
+        let span = call_span(&r, "score");
         let mut inbound = r.into_inner();
         let (tx, rx) = tokio::sync::mpsc::channel(4);
         let this = ScoreCtx { shards: self.shards.clone(), pool: self.pool.clone() };
-        tokio::spawn(async move {
-            loop {
-                let msg = match inbound.message().await {
-                    Ok(Some(m)) => m,
-                    Ok(None) => break,
-                    Err(s) => {
-                        let _ = tx.send(Err(s)).await;
+        tokio::spawn(
+            async move {
+                loop {
+                    let msg = match inbound.message().await {
+                        Ok(Some(m)) => m,
+                        Ok(None) => break,
+                        Err(s) => {
+                            let _ = tx.send(Err(s)).await;
+                            break;
+                        }
+                    };
+                    let reply = this.answer(msg).await;
+                    let failed = reply.is_err();
+                    if tx.send(reply).await.is_err() || failed {
                         break;
                     }
-                };
-                let reply = this.answer(msg).await;
-                let failed = reply.is_err();
-                if tx.send(reply).await.is_err() || failed {
-                    break;
                 }
             }
-        });
+            .instrument(span),
+        );
         Ok(Response::new(tokio_stream::wrappers::ReceiverStream::new(rx)))
     }
 
     async fn score_fill(&self, r: Request<v1::FillRequest>) -> Result<Response<v1::FillReply>, Status> {
-        let msg = r.into_inner();
-        if msg.fill_version != ridgeline_proto::FILL_VERSION {
-            return Err(Status::invalid_argument(format!(
-                "fill message version {} (this worker speaks {})",
-                msg.fill_version,
-                ridgeline_proto::FILL_VERSION
-            )));
+        let span = call_span(&r, "score_fill");
+        async move {
+            let msg = r.into_inner();
+            if msg.fill_version != ridgeline_proto::FILL_VERSION {
+                return Err(Status::invalid_argument(format!(
+                    "fill message version {} (this worker speaks {})",
+                    msg.fill_version,
+                    ridgeline_proto::FILL_VERSION
+                )));
+            }
+            let shard = find_shard(&self.shards, &msg.shard_key)?;
+            if msg.k == 0 || msg.k > 64 || msg.targets.len() > 4096 {
+                return Err(Status::invalid_argument("k must be within 1..=64 and a batch at most 4096 fill targets"));
+            }
+            let patch = shard.patch();
+            let targets = msg
+                .targets
+                .into_iter()
+                .map(|t| fill_target_from_wire(t, patch))
+                .collect::<Result<Vec<_>, _>>()
+                .map_err(Status::invalid_argument)?;
+            let (pool, k, seed, n) = (self.pool.clone(), msg.k as usize, msg.seed, targets.len());
+            let span = tracing::Span::current();
+            let sets =
+                tokio::task::spawn_blocking(move || pool.install(|| span.in_scope(|| shard.score_fill(&targets, seed, k))))
+                    .await
+                    .map_err(|e| Status::internal(e.to_string()))?
+                    .map_err(shard_status)?;
+            tracing::debug!(targets = n, "fill batch answered");
+            Ok(Response::new(v1::FillReply {
+                fill_version: ridgeline_proto::FILL_VERSION,
+                best_sets: sets.iter().map(fill_set_to_wire).collect(),
+            }))
         }
-        let shard = find_shard(&self.shards, &msg.shard_key)?;
-        if msg.k == 0 || msg.k > 64 || msg.targets.len() > 4096 {
-            return Err(Status::invalid_argument("k must be within 1..=64 and a batch at most 4096 fill targets"));
-        }
-        let patch = shard.patch();
-        let targets = msg
-            .targets
-            .into_iter()
-            .map(|t| fill_target_from_wire(t, patch))
-            .collect::<Result<Vec<_>, _>>()
-            .map_err(Status::invalid_argument)?;
-        let (pool, k, seed, n) = (self.pool.clone(), msg.k as usize, msg.seed, targets.len());
-        let sets = tokio::task::spawn_blocking(move || pool.install(|| shard.score_fill(&targets, seed, k)))
-            .await
-            .map_err(|e| Status::internal(e.to_string()))?
-            .map_err(shard_status)?;
-        tracing::debug!(targets = n, "fill batch answered");
-        Ok(Response::new(v1::FillReply {
-            fill_version: ridgeline_proto::FILL_VERSION,
-            best_sets: sets.iter().map(fill_set_to_wire).collect(),
-        }))
+        .instrument(span)
+        .await
     }
 }
 
@@ -322,7 +396,8 @@ impl ScoreCtx {
         let queries =
             msg.queries.into_iter().map(query_from_wire).collect::<Result<Vec<_>, _>>().map_err(Status::invalid_argument)?;
         let (pool, k, index) = (self.pool.clone(), msg.k as usize, msg.block_index);
-        let sets = tokio::task::spawn_blocking(move || pool.install(|| shard.score_block(&queries, k)))
+        let span = tracing::Span::current();
+        let sets = tokio::task::spawn_blocking(move || pool.install(|| span.in_scope(|| shard.score_block(&queries, k))))
             .await
             .map_err(|e| Status::internal(e.to_string()))?
             .map_err(shard_status)?;
@@ -356,12 +431,19 @@ pub async fn serve(
     shutdown: impl std::future::Future<Output = ()> + Send,
 ) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
     let token = cfg.token.clone();
+    let cfg_limits = cfg.connections;
     let svc = WorkerServer::new(WorkerService::new(cfg)?)
         .max_decoding_message_size(MAX_MESSAGE_BYTES)
         .max_encoding_message_size(MAX_MESSAGE_BYTES);
     let server =
         tonic::service::interceptor::InterceptedService::new(svc, move |req: Request<()>| check_token(&token, &req).map(|_| req));
-    let mut builder = tonic::transport::Server::builder();
+    let limits = cfg_limits;
+    // established connections that go silent are found by keepalive pings; a caller
+    // may open a bounded number of streams per connection
+    let mut builder = tonic::transport::Server::builder()
+        .http2_keepalive_interval(Some(std::time::Duration::from_secs(30)))
+        .http2_keepalive_timeout(Some(std::time::Duration::from_secs(10)))
+        .max_concurrent_streams(Some(64));
     if let Some(t) = tls {
         let read = |p: &Path| std::fs::read(p).map_err(|e| format!("{}: {e}", p.display()));
         let identity = tonic::transport::Identity::from_pem(read(&t.cert)?, read(&t.key)?);
@@ -369,7 +451,7 @@ pub async fn serve(
     }
     builder
         .add_service(server)
-        .serve_with_incoming_shutdown(tokio_stream::wrappers::TcpListenerStream::new(listener), shutdown)
+        .serve_with_incoming_shutdown(crate::connection_guard::incoming(listener, limits), shutdown)
         .await?;
     Ok(())
 }

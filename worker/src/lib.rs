@@ -7,6 +7,7 @@
 
 pub mod backend;
 pub mod candidates;
+pub mod connection_guard;
 pub mod exemplar_store;
 pub mod feature_cache;
 pub mod fill_scoring;

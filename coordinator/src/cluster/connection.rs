@@ -12,13 +12,23 @@ use tonic::service::interceptor::InterceptedService;
 use tonic::transport::{Channel, ClientTlsConfig, Endpoint};
 use tonic::{Request, Status};
 
+type Header = tonic::metadata::MetadataValue<tonic::metadata::Ascii>;
+
+/// What every call carries: the cluster token and the job id (so the worker's log
+/// lines of this job carry it too).
 #[derive(Clone)]
-pub(crate) struct Auth(Option<tonic::metadata::MetadataValue<tonic::metadata::Ascii>>);
+pub(crate) struct Auth {
+    token: Option<Header>,
+    job: Option<Header>,
+}
 
 impl tonic::service::Interceptor for Auth {
     fn call(&mut self, mut req: Request<()>) -> Result<Request<()>, Status> {
-        if let Some(v) = &self.0 {
+        if let Some(v) = &self.token {
             req.metadata_mut().insert("authorization", v.clone());
+        }
+        if let Some(v) = &self.job {
+            req.metadata_mut().insert(ridgeline_worker::grpc_service::JOB_ID_HEADER, v.clone());
         }
         Ok(req)
     }
@@ -71,13 +81,16 @@ impl Cluster {
             .enable_all()
             .build()
             .map_err(|e| ClusterError::Setup(e.to_string()))?;
-        let auth = match &cfg.token {
-            Some(t) => Auth(Some(
-                format!("Bearer {t}")
-                    .parse()
-                    .map_err(|_| ClusterError::Setup("token has characters not allowed in a header".into()))?,
-            )),
-            None => Auth(None),
+        let auth = Auth {
+            token: match &cfg.token {
+                Some(t) => Some(
+                    format!("Bearer {t}")
+                        .parse()
+                        .map_err(|_| ClusterError::Setup("token has characters not allowed in a header".into()))?,
+                ),
+                None => None,
+            },
+            job: cfg.job_id.as_deref().and_then(|j| j.parse().ok()),
         };
         let n = cfg.workers.len();
         let cluster = Arc::new(Cluster {

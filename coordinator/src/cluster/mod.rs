@@ -43,6 +43,8 @@ pub struct ClusterConfig {
     pub call_timeout: Duration,
     /// Deadline of uploading and loading a shard (feature extraction may run).
     pub load_timeout: Duration,
+    /// The job id sent with every call, so the workers' logs name the job.
+    pub job_id: Option<String>,
 }
 
 impl Default for ClusterConfig {
@@ -53,6 +55,7 @@ impl Default for ClusterConfig {
             tls_ca: None,
             call_timeout: Duration::from_secs(120),
             load_timeout: Duration::from_secs(1800),
+            job_id: None,
         }
     }
 }
