@@ -179,6 +179,28 @@ fn a_worker_refuses_to_serve_a_public_address_without_a_token() {
 }
 
 #[test]
+fn the_health_service_answers_without_the_token() {
+    use tonic_health::pb::{health_check_response::ServingStatus, health_client::HealthClient, HealthCheckRequest};
+    let d = temp_dir("cluster-health");
+    let w = WorkerProc::start(&d.join("w"), Some(TOKEN));
+    let rt = tokio::runtime::Runtime::new().unwrap();
+    rt.block_on(async {
+        let channel = tonic::transport::Endpoint::from_shared(w.url.clone()).unwrap().connect().await.unwrap();
+        let mut c = HealthClient::new(channel);
+        for service in ["", "ridgeline.v1.Worker"] {
+            let r = c.check(HealthCheckRequest { service: service.into() }).await.unwrap().into_inner();
+            assert_eq!(r.status, ServingStatus::Serving as i32, "service '{service}'");
+        }
+        let e = c.check(HealthCheckRequest { service: "no.such.Service".into() }).await.unwrap_err();
+        assert_eq!(e.code(), tonic::Code::NotFound);
+        // the worker's own calls still need the token
+        let mut worker = v1::worker_client::WorkerClient::connect(w.url.clone()).await.unwrap();
+        let e = worker.capabilities(v1::CapabilitiesRequest {}).await.unwrap_err();
+        assert_eq!(e.code(), tonic::Code::Unauthenticated);
+    });
+}
+
+#[test]
 fn a_worker_with_an_unusable_data_dir_says_which_before_it_listens() {
     let d = temp_dir("cluster-data-dir");
     std::fs::write(d.join("file"), b"not a folder").unwrap();

@@ -449,7 +449,13 @@ pub async fn serve(
         let identity = tonic::transport::Identity::from_pem(read(&t.cert)?, read(&t.key)?);
         builder = builder.tls_config(tonic::transport::ServerTlsConfig::new().identity(identity))?;
     }
+    // the standard gRPC health service, without the token (Kubernetes probes and load
+    // balancers do not carry it): "" and "ridgeline.v1.Worker" report SERVING
+    let (health, health_svc) = tonic_health::server::health_reporter();
+    health.set_service_status("", tonic_health::ServingStatus::Serving).await;
+    health.set_service_status("ridgeline.v1.Worker", tonic_health::ServingStatus::Serving).await;
     builder
+        .add_service(health_svc)
         .add_service(server)
         .serve_with_incoming_shutdown(crate::connection_guard::incoming(listener, limits), shutdown)
         .await?;
