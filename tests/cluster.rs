@@ -134,7 +134,12 @@ fn sockets_held_half_open_do_not_stop_a_job_and_are_closed() {
     use std::io::{Read, Write};
     let Some(data) = shared_data() else { return };
     let d = temp_dir("cluster-half-open");
-    let w = WorkerProc::start_with(&d.join("w"), Some(TOKEN), &["--gpu", "off", "--handshake-timeout-s", "2"]);
+    let metrics_addr = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().to_string();
+    let w = WorkerProc::start_with(
+        &d.join("w"),
+        Some(TOKEN),
+        &["--gpu", "off", "--handshake-timeout-s", "2", "--metrics-listen", &metrics_addr],
+    );
     let addr = w.url.trim_start_matches("http://").to_string();
     // more silent sockets than may wait for a handshake, and some that send junk
     let mut silent: Vec<std::net::TcpStream> = (0..300).map(|_| std::net::TcpStream::connect(&addr).unwrap()).collect();
@@ -165,6 +170,27 @@ fn sockets_held_half_open_do_not_stop_a_job_and_are_closed() {
     // refusals are logged with the caller, and the job's calls with its id
     wait_for_log(&w, |l| l.contains("connection refused") && l.contains("caller=127.0.0.1:"));
     wait_for_log(&w, |l| l.contains("job_id=job-under-siege") && l.contains("block answered"));
+    // and counted in the worker's metrics
+    let mut c = std::net::TcpStream::connect(&metrics_addr).unwrap();
+    c.write_all(b"GET /metrics HTTP/1.1\r\nHost: x\r\n\r\n").unwrap();
+    let mut page = String::new();
+    c.read_to_string(&mut page).unwrap();
+    // the sum over every series whose line starts so
+    let value = |name: &str| -> f64 {
+        let vals: Vec<f64> = page
+            .lines()
+            .filter(|l| l.starts_with(name))
+            .filter_map(|l| l.rsplit(' ').next().and_then(|v| v.parse().ok()))
+            .collect();
+        assert!(!vals.is_empty(), "{name} missing in\n{page}");
+        vals.iter().sum()
+    };
+    assert!(value("ridgeline_worker_user_patches_scored_total") > 0.0);
+    assert!(value("ridgeline_worker_fill_targets_scored_total") > 0.0);
+    assert!(value("ridgeline_worker_calls_total{call=\"score_block\",outcome=\"ok\"}") > 0.0);
+    assert!(value("ridgeline_worker_received_bytes_total") > 0.0 && value("ridgeline_worker_sent_bytes_total") > 0.0);
+    assert!(value("ridgeline_worker_refused_total{what=\"connection\"") >= 300.0, "every silent socket was refused");
+    assert_eq!(value("ridgeline_worker_shards_loaded"), 1.0);
 }
 
 #[test]

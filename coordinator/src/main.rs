@@ -75,6 +75,9 @@ struct WorkerArgs {
     max_connections: usize,
     #[arg(long, default_value_t = 64)]
     max_per_caller: usize,
+    /// Serve Prometheus metrics (GET /metrics) on this address.
+    #[arg(long)]
+    metrics_listen: Option<std::net::SocketAddr>,
 }
 
 #[derive(clap::Args)]
@@ -154,6 +157,9 @@ struct SynthArgs {
     /// (MemAvailable, or the container's limit).
     #[arg(long, value_parser = ridgeline::memory_budget::parse_size)]
     max_memory: Option<u64>,
+    /// Serve Prometheus metrics (GET /metrics) on this address while the job runs.
+    #[arg(long)]
+    metrics_listen: Option<std::net::SocketAddr>,
 }
 
 #[derive(clap::Args)]
@@ -341,6 +347,7 @@ fn worker(a: WorkerArgs) -> Result<()> {
     };
     // find out that the data dir is unusable before telling anyone we listen
     ridgeline_worker::grpc_service::check_data_dir(&data_dir).map_err(|e| anyhow::anyhow!("{e}"))?;
+    serve_metrics(a.metrics_listen)?;
     let tls = match (a.tls_cert, a.tls_key) {
         (Some(cert), Some(key)) => Some(ridgeline_worker::grpc_service::TlsFiles { cert, key }),
         _ => None,
@@ -362,6 +369,15 @@ fn worker(a: WorkerArgs) -> Result<()> {
         };
         ridgeline_worker::grpc_service::serve(listener, cfg, tls, shutdown).await.map_err(|e| anyhow::anyhow!("{e}"))
     })
+}
+
+/// Starts the metrics endpoint when asked for.
+fn serve_metrics(addr: Option<std::net::SocketAddr>) -> Result<()> {
+    if let Some(addr) = addr {
+        let bound = ridgeline_worker::metrics::serve(addr).with_context(|| format!("--metrics-listen {addr}"))?;
+        tracing::info!(%bound, "metrics at http://{bound}/metrics");
+    }
+    Ok(())
 }
 
 fn worker_urls(a: &SynthArgs) -> Result<Vec<String>> {
@@ -461,6 +477,7 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
         }
     }
     check_collisions(&a)?;
+    serve_metrics(a.metrics_listen)?;
     let urls = worker_urls(&a)?;
     let cluster = if urls.is_empty() {
         None
@@ -490,7 +507,10 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
         max_memory: a.max_memory,
         ..SynthConfig::default()
     };
-    let out = run_job(&a.sketch, &a.exemplars, &cfg).context("synthesis failed")?;
+    let out = run_job(&a.sketch, &a.exemplars, &cfg);
+    let jobs = &ridgeline_worker::metrics::metrics().coordinator_jobs;
+    jobs.get_or_create(&vec![("outcome", if out.is_ok() { "ok" } else { "error" }.to_string())]).inc();
+    let out = out.context("synthesis failed")?;
     let t = std::time::Instant::now();
     let cell = out.report.cell_size_m;
     // every output is staged and they appear together at the commit below; an error on

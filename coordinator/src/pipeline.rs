@@ -249,6 +249,7 @@ impl SynthReport {
     fn stage(&mut self, stage: &'static str, t: Instant) {
         let seconds = t.elapsed().as_secs_f64();
         tracing::info!(stage, seconds, "stage done");
+        ridgeline_worker::metrics::metrics().stage(stage, seconds);
         self.stages.push(StageTiming { stage, seconds });
     }
 }

@@ -111,8 +111,9 @@ impl Connected for Guarded {
     }
 }
 
-fn refused(caller: SocketAddr, reason: &str) {
+fn refused(caller: SocketAddr, reason: &'static str) {
     tracing::warn!(%caller, reason, "connection refused");
+    crate::metrics::metrics().refused("connection", reason);
 }
 
 /// Accepts connections on `listener` under `limits`; yields those that may reach the

@@ -9,7 +9,9 @@
 //! requests get `invalid_argument`, unknown shards `not_found`; the worker keeps
 //! serving.
 
+use crate::metrics::metrics;
 use crate::{FeatureCache, InProcessShard, ShardConfig};
+use prost::Message;
 use ridgeline_proto::convert::*;
 use ridgeline_proto::v1;
 use ridgeline_proto::v1::worker_server::{Worker, WorkerServer};
@@ -118,6 +120,7 @@ pub fn check_token(expected: &Option<String>, req: &Request<()>) -> Result<(), S
     } else {
         let caller = req.remote_addr().map(|a| a.to_string()).unwrap_or_else(|| "unknown".into());
         tracing::warn!(%caller, job_id = %job_of(req), reason = "missing or wrong cluster token", "call refused");
+        metrics().refused("call", "token");
         Err(Status::unauthenticated("missing or wrong cluster token"))
     }
 }
@@ -135,6 +138,18 @@ pub fn job_of<T>(req: &Request<T>) -> String {
         .unwrap_or_else(|| "-".into())
 }
 
+/// Runs a call's body in its span and counts it in the metrics.
+async fn observed<T>(
+    call: &'static str,
+    span: tracing::Span,
+    body: impl std::future::Future<Output = Result<T, Status>>,
+) -> Result<T, Status> {
+    let t = std::time::Instant::now();
+    let r = body.instrument(span).await;
+    metrics().worker_call(call, r.is_ok(), t.elapsed().as_secs_f64());
+    r
+}
+
 /// The span every event of a call is logged in: the coordinator's job id, the caller.
 fn call_span<T>(req: &Request<T>, call: &'static str) -> tracing::Span {
     let caller = req.remote_addr().map(|a| a.to_string()).unwrap_or_else(|| "unknown".into());
@@ -145,7 +160,7 @@ fn call_span<T>(req: &Request<T>, call: &'static str) -> tracing::Span {
 impl Worker for WorkerService {
     async fn capabilities(&self, r: Request<v1::CapabilitiesRequest>) -> Result<Response<v1::CapabilitiesReply>, Status> {
         let span = call_span(&r, "capabilities");
-        async move {
+        observed("capabilities", span, async move {
             Ok(Response::new(v1::CapabilitiesReply {
                 protocol_version: PROTOCOL_VERSION,
                 backend: self.backend_info().backend.into(),
@@ -156,14 +171,13 @@ impl Worker for WorkerService {
                 memory_bytes: system_memory(),
                 version: env!("CARGO_PKG_VERSION").into(),
             }))
-        }
-        .instrument(span)
+        })
         .await
     }
 
     async fn missing_exemplars(&self, r: Request<v1::MissingRequest>) -> Result<Response<v1::MissingReply>, Status> {
         let span = call_span(&r, "missing_exemplars");
-        async move {
+        observed("missing_exemplars", span, async move {
             let r = r.into_inner();
             if r.content_hashes.len() > 100_000 {
                 return Err(Status::invalid_argument("too many hashes"));
@@ -178,14 +192,13 @@ impl Worker for WorkerService {
                 }
             }
             Ok(Response::new(v1::MissingReply { content_hashes: missing }))
-        }
-        .instrument(span)
+        })
         .await
     }
 
     async fn put_exemplar(&self, r: Request<Streaming<v1::ExemplarChunk>>) -> Result<Response<v1::PutReply>, Status> {
         let span = call_span(&r, "put_exemplar");
-        async move {
+        observed("put_exemplar", span, async move {
             let mut stream = r.into_inner();
             let first = stream.message().await?.ok_or_else(|| Status::invalid_argument("empty upload"))?;
             let (hash, ext, total) = (first.content_hash.clone(), first.extension.to_ascii_lowercase(), first.total_size);
@@ -233,15 +246,15 @@ impl Worker for WorkerService {
             }
             result?;
             tracing::info!(hash = %hash, bytes = size, "exemplar stored");
+            metrics().worker_bytes_in.inc_by(size);
             Ok(Response::new(v1::PutReply { content_hash: hash }))
-        }
-        .instrument(span)
+        })
         .await
     }
 
     async fn load_shard(&self, r: Request<v1::LoadShardRequest>) -> Result<Response<v1::LoadShardReply>, Status> {
         let span = call_span(&r, "load_shard");
-        async move {
+        observed("load_shard", span, async move {
             let r = r.into_inner();
             if r.patch < 8 || r.patch > 512 || !r.patch.is_multiple_of(2) {
                 return Err(Status::invalid_argument(format!("patch size {} must be even and within 8..=512", r.patch)));
@@ -306,9 +319,9 @@ impl Worker for WorkerService {
             while shards.len() > self.cfg.max_shards.max(1) {
                 shards.remove(0);
             }
+            metrics().worker_shards_loaded.set(shards.len() as i64);
             Ok(Response::new(reply))
-        }
-        .instrument(span)
+        })
         .await
     }
 
@@ -344,8 +357,9 @@ impl Worker for WorkerService {
 
     async fn score_fill(&self, r: Request<v1::FillRequest>) -> Result<Response<v1::FillReply>, Status> {
         let span = call_span(&r, "score_fill");
-        async move {
+        observed("score_fill", span, async move {
             let msg = r.into_inner();
+            let bytes_in = msg.encoded_len() as u64;
             if msg.fill_version != ridgeline_proto::FILL_VERSION {
                 return Err(Status::invalid_argument(format!(
                     "fill message version {} (this worker speaks {})",
@@ -372,12 +386,16 @@ impl Worker for WorkerService {
                     .map_err(|e| Status::internal(e.to_string()))?
                     .map_err(shard_status)?;
             tracing::debug!(targets = n, "fill batch answered");
-            Ok(Response::new(v1::FillReply {
+            let reply = v1::FillReply {
                 fill_version: ridgeline_proto::FILL_VERSION,
                 best_sets: sets.iter().map(fill_set_to_wire).collect(),
-            }))
-        }
-        .instrument(span)
+            };
+            let m = metrics();
+            m.worker_fill_targets.inc_by(n as u64);
+            m.worker_bytes_in.inc_by(bytes_in);
+            m.worker_bytes_out.inc_by(reply.encoded_len() as u64);
+            Ok(Response::new(reply))
+        })
         .await
     }
 }
@@ -389,19 +407,32 @@ struct ScoreCtx {
 
 impl ScoreCtx {
     async fn answer(&self, msg: v1::ScoreRequest) -> Result<v1::ScoreReply, Status> {
+        let (t, bytes_in) = (std::time::Instant::now(), msg.encoded_len() as u64);
+        let reply = self.answer_block(msg).await;
+        let m = metrics();
+        m.worker_call("score_block", reply.is_ok(), t.elapsed().as_secs_f64());
+        m.worker_bytes_in.inc_by(bytes_in);
+        if let Ok(r) = &reply {
+            m.worker_bytes_out.inc_by(r.encoded_len() as u64);
+        }
+        reply
+    }
+
+    async fn answer_block(&self, msg: v1::ScoreRequest) -> Result<v1::ScoreReply, Status> {
         let shard = find_shard(&self.shards, &msg.shard_key)?;
         if msg.k == 0 || msg.k > 64 || msg.queries.len() > 4096 {
             return Err(Status::invalid_argument("k must be within 1..=64 and a block at most 4096 user patches"));
         }
         let queries =
             msg.queries.into_iter().map(query_from_wire).collect::<Result<Vec<_>, _>>().map_err(Status::invalid_argument)?;
-        let (pool, k, index) = (self.pool.clone(), msg.k as usize, msg.block_index);
+        let (pool, k, index, n_queries) = (self.pool.clone(), msg.k as usize, msg.block_index, queries.len() as u64);
         let span = tracing::Span::current();
         let sets = tokio::task::spawn_blocking(move || pool.install(|| span.in_scope(|| shard.score_block(&queries, k))))
             .await
             .map_err(|e| Status::internal(e.to_string()))?
             .map_err(shard_status)?;
         tracing::info!(block = index, best_sets = sets.len(), "block answered");
+        metrics().worker_user_patches.inc_by(n_queries);
         Ok(v1::ScoreReply { block_index: index, best_sets: sets.iter().map(best_set_to_wire).collect() })
     }
 }

@@ -13,6 +13,7 @@ pub mod feature_cache;
 pub mod fill_scoring;
 pub mod gpu;
 pub mod grpc_service;
+pub mod metrics;
 pub mod patch_matching;
 
 pub use exemplar_store::{load_source, ShardConfig, Source};

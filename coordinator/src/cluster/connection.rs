@@ -36,12 +36,27 @@ impl tonic::service::Interceptor for Auth {
 
 pub(crate) type Client = WorkerClient<InterceptedService<Channel, Auth>>;
 
-/// Bytes moved over the wire, by direction.
+/// Bytes moved over the wire, by direction (also in the process's metrics).
 #[derive(Debug, Default)]
 pub struct TransferStats {
     pub exemplar_bytes: AtomicU64,
     pub request_bytes: AtomicU64,
     pub reply_bytes: AtomicU64,
+}
+
+impl TransferStats {
+    pub(crate) fn add_call(&self, request: u64, reply: u64) {
+        self.request_bytes.fetch_add(request, Ordering::Relaxed);
+        self.reply_bytes.fetch_add(reply, Ordering::Relaxed);
+        let m = ridgeline_worker::metrics::metrics();
+        m.coordinator_bytes_out.inc_by(request);
+        m.coordinator_bytes_in.inc_by(reply);
+    }
+
+    pub(crate) fn add_exemplar(&self, bytes: u64) {
+        self.exemplar_bytes.fetch_add(bytes, Ordering::Relaxed);
+        ridgeline_worker::metrics::metrics().coordinator_bytes_out.inc_by(bytes);
+    }
 }
 
 impl std::fmt::Debug for Cluster {
@@ -169,6 +184,7 @@ impl Cluster {
     pub(crate) fn mark_dead(&self, w: usize, why: &Status) {
         if self.alive[w].swap(false, Ordering::SeqCst) {
             tracing::warn!(worker = %self.cfg.workers[w], code = ?why.code(), error = %why.message(), "worker marked dead");
+            ridgeline_worker::metrics::metrics().coordinator_workers_dead.inc();
         }
         if let Ok(mut c) = self.channels[w].lock() {
             *c = None;

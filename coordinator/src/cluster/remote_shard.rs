@@ -98,7 +98,7 @@ impl RemoteShard {
                 })
                 .collect();
             client.put_exemplar(tokio_stream::iter(chunks)).await?;
-            c.stats.exemplar_bytes.fetch_add(total, Ordering::Relaxed);
+            c.stats.add_exemplar(total);
             tracing::info!(worker = %c.cfg.workers[w], exemplar = %e.wire.name, bytes = total, "exemplar uploaded");
         }
         let req = v1::LoadShardRequest {
@@ -155,6 +155,9 @@ impl RemoteShard {
                             return Err(ShardError::BadRequest(format!("{}: {}", self.cluster.cfg.workers[w], s.message())));
                         }
                         tracing::warn!(worker = %self.cluster.cfg.workers[w], attempt, error = %s.message(), "worker call failed");
+                        if attempt < 2 {
+                            ridgeline_worker::metrics::metrics().coordinator_retries.inc();
+                        }
                         last = s;
                     }
                 }
@@ -181,6 +184,7 @@ impl RemoteShard {
             ))
         })?;
         tracing::warn!(shard = %self.key, from = %self.cluster.cfg.workers[w], to = %self.cluster.cfg.workers[next], "shard reassigned");
+        ridgeline_worker::metrics::metrics().coordinator_reassignments.inc();
         st.worker = next;
         Ok(())
     }
@@ -261,12 +265,13 @@ impl ShardScorer for RemoteShard {
         };
         let _span = tracing::debug_span!("worker_call", shard = %self.key, block = req.block_index).entered();
         let t = std::time::Instant::now();
-        let reply = self.with_failover(|s, st| s.score_once(st, &req))?;
+        let reply = self.with_failover(|s, st| s.score_once(st, &req));
+        ridgeline_worker::metrics::metrics().coordinator_call("round1", reply.is_ok());
+        let reply = reply?;
         let samples = round1_samples(self.counts().0, block);
         self.measured(t.elapsed().as_secs_f64(), samples, true);
         let stats = &self.cluster.stats;
-        stats.request_bytes.fetch_add(req.encoded_len() as u64, Ordering::Relaxed);
-        stats.reply_bytes.fetch_add(reply.encoded_len() as u64, Ordering::Relaxed);
+        stats.add_call(req.encoded_len() as u64, reply.encoded_len() as u64);
         reply.best_sets.into_iter().map(|b| best_set_from_wire(b, self.patch).map_err(ShardError::BadRequest)).collect()
     }
 
@@ -289,11 +294,12 @@ impl ShardScorer for RemoteShard {
                     .map_err(|_| Status::deadline_exceeded("fill scoring timed out"))?
                     .map(|r| r.into_inner())
             })
-        })?;
+        });
+        ridgeline_worker::metrics::metrics().coordinator_call("fill", reply.is_ok());
+        let reply = reply?;
         self.measured(t.elapsed().as_secs_f64(), fill_samples(self.counts().1, targets), false);
         let stats = &self.cluster.stats;
-        stats.request_bytes.fetch_add(req.encoded_len() as u64, Ordering::Relaxed);
-        stats.reply_bytes.fetch_add(reply.encoded_len() as u64, Ordering::Relaxed);
+        stats.add_call(req.encoded_len() as u64, reply.encoded_len() as u64);
         reply.best_sets.into_iter().map(|b| fill_set_from_wire(b, self.patch).map_err(ShardError::BadRequest)).collect()
     }
 }
