@@ -22,6 +22,8 @@ if ! ldconfig -p 2>/dev/null | grep -q libvulkan.so.1 || ! ls /usr/share/vulkan/
 fi
 # lavapipe warns at every start without a runtime dir
 export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
+# deploy/ manifests against the Kubernetes and Compose schemas
+bash scripts/check-deploy.sh
 cargo fmt --all -- --check
 cargo clippy --workspace --all-targets --release -- -D warnings
 cargo test --workspace --release

@@ -205,6 +205,24 @@ fn a_worker_refuses_to_serve_a_public_address_without_a_token() {
 }
 
 #[test]
+fn workers_are_found_by_dns() {
+    let Some(data) = shared_data() else { return };
+    let d = temp_dir("cluster-dns");
+    let w = WorkerProc::start(&d.join("w"), Some(TOKEN));
+    let port = w.url.rsplit(':').next().unwrap().to_string();
+    // localhost may also resolve to ::1, where nothing listens: that address starts dead
+    let cfg =
+        ClusterConfig { workers: vec![format!("dns:///localhost:{port}")], token: Some(TOKEN.into()), ..Default::default() };
+    let cluster = Cluster::connect(cfg).expect("connect by DNS");
+    let live = cluster.live();
+    assert_eq!(live.len(), 1, "{cluster:?}");
+    assert_eq!(cluster.url(live[0]), format!("http://127.0.0.1:{port}"));
+    job(&data, &d.join("cache"), Some(cluster)).expect("a job on the worker found by DNS");
+    let cfg = ClusterConfig { workers: vec!["dns:///localhost".into()], ..Default::default() };
+    assert!(Cluster::connect(cfg).unwrap_err().to_string().contains("NAME:PORT"));
+}
+
+#[test]
 fn the_health_service_answers_without_the_token() {
     use tonic_health::pb::{health_check_response::ServingStatus, health_client::HealthClient, HealthCheckRequest};
     let d = temp_dir("cluster-health");

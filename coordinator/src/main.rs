@@ -390,8 +390,8 @@ fn worker_urls(a: &SynthArgs) -> Result<Vec<String>> {
         }
     }
     for u in &urls {
-        if !(u.starts_with("http://") || u.starts_with("https://")) {
-            bail!("worker '{u}': use an http:// or https:// URL");
+        if !(u.starts_with("http://") || u.starts_with("https://") || u.starts_with(ridgeline::cluster::connection::DNS_SCHEME)) {
+            bail!("worker '{u}': use an http:// or https:// URL, or dns:///NAME:PORT for every address behind a name");
         }
     }
     Ok(urls)

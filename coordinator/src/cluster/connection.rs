@@ -61,7 +61,8 @@ impl TransferStats {
 
 impl std::fmt::Debug for Cluster {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Cluster").field("workers", &self.cfg.workers).field("live", &self.live()).finish()
+        let urls: Vec<String> = (0..self.urls.len()).map(|w| self.url(w)).collect();
+        f.debug_struct("Cluster").field("workers", &urls).field("live", &self.live()).finish()
     }
 }
 
@@ -69,6 +70,12 @@ impl std::fmt::Debug for Cluster {
 pub struct Cluster {
     pub(crate) rt: tokio::runtime::Runtime,
     pub(crate) cfg: ClusterConfig,
+    /// Each worker slot's address (`http(s)://host:port`; empty for a spare slot
+    /// that DNS discovery may fill).
+    urls: Vec<Mutex<String>>,
+    /// The `dns:///` entries of `cfg.workers`, re-resolved when a worker is lost.
+    dns: Vec<String>,
+    rediscovering: Mutex<()>,
     auth: Auth,
     channels: Vec<Mutex<Option<Channel>>>,
     pub(crate) alive: Vec<AtomicBool>,
@@ -107,59 +114,132 @@ impl Cluster {
             },
             job: cfg.job_id.as_deref().and_then(|j| j.parse().ok()),
         };
-        let n = cfg.workers.len();
+        let dns: Vec<String> = cfg.workers.iter().filter(|w| w.starts_with(DNS_SCHEME)).cloned().collect();
+        let mut urls: Vec<String> = cfg.workers.iter().filter(|w| !w.starts_with(DNS_SCHEME)).cloned().collect();
+        for spec in &dns {
+            let found = rt.block_on(resolve(spec, cfg.tls_ca.is_some())).map_err(ClusterError::Setup)?;
+            tracing::info!(name = %spec, workers = found.len(), "workers found by DNS");
+            urls.extend(found.into_iter().filter(|u| !urls.contains(u)).collect::<Vec<_>>());
+        }
+        if urls.is_empty() {
+            return Err(ClusterError::NoLiveWorker(format!("no address behind {}", dns.join(", "))));
+        }
+        let active = urls.len();
+        // spare slots for workers that DNS finds later (pods replaced or added mid-job)
+        if !dns.is_empty() {
+            urls.extend(std::iter::repeat_n(String::new(), active.max(4)));
+        }
+        let n = urls.len();
         let cluster = Arc::new(Cluster {
             rt,
             cfg,
+            urls: urls.into_iter().map(Mutex::new).collect(),
+            dns,
+            rediscovering: Mutex::new(()),
             auth,
             channels: (0..n).map(|_| Mutex::new(None)).collect(),
-            alive: (0..n).map(|_| AtomicBool::new(true)).collect(),
+            alive: (0..n).map(|w| AtomicBool::new(w < active)).collect(),
             stats: TransferStats::default(),
             capabilities: Mutex::new(vec![None; n]),
             rates: Default::default(),
         });
         let mut why = Vec::new();
-        for w in 0..n {
-            let c = cluster.clone();
-            let res = cluster.rt.block_on(async move {
-                let mut client = c.client(w).await?;
-                let mut req = Request::new(v1::CapabilitiesRequest {});
-                req.set_timeout(Duration::from_secs(10));
-                tokio::time::timeout(Duration::from_secs(15), client.capabilities(req))
-                    .await
-                    .map_err(|_| Status::deadline_exceeded("capabilities timed out"))?
-                    .map(|r| r.into_inner())
-            });
-            match res {
-                Ok(cap) => {
-                    tracing::info!(
-                        worker = %cluster.cfg.workers[w],
-                        backend = %cap.backend,
-                        adapter = %cap.adapter,
-                        threads = cap.threads,
-                        memory_mb = cap.memory_bytes >> 20,
-                        gpu_memory_mb = cap.gpu_memory_bytes >> 20,
-                        "worker ready"
-                    );
-                    if let Ok(mut c) = cluster.capabilities.lock() {
-                        c[w] = Some(cap.clone());
-                    }
-                    if cap.protocol_version != ridgeline_proto::PROTOCOL_VERSION {
-                        cluster.alive[w].store(false, Ordering::SeqCst);
-                        why.push(format!("{}: protocol version {}", cluster.cfg.workers[w], cap.protocol_version));
-                    }
-                }
-                Err(s) => {
-                    tracing::warn!(worker = %cluster.cfg.workers[w], error = %s.message(), "worker unreachable");
-                    cluster.alive[w].store(false, Ordering::SeqCst);
-                    why.push(format!("{}: {} ({:?})", cluster.cfg.workers[w], s.message(), s.code()));
-                }
+        for w in 0..active {
+            if let Err(e) = cluster.probe(w) {
+                why.push(e);
             }
         }
         if cluster.live().is_empty() {
             return Err(ClusterError::NoLiveWorker(why.join("; ")));
         }
         Ok(cluster)
+    }
+
+    /// Asks worker `w` for its capabilities and marks it alive if it answers and speaks
+    /// this protocol version, dead otherwise (saying why).
+    fn probe(self: &Arc<Self>, w: usize) -> Result<(), String> {
+        let c = self.clone();
+        let res = self.rt.block_on(async move {
+            let mut client = c.client(w).await?;
+            let mut req = Request::new(v1::CapabilitiesRequest {});
+            req.set_timeout(Duration::from_secs(10));
+            tokio::time::timeout(Duration::from_secs(15), client.capabilities(req))
+                .await
+                .map_err(|_| Status::deadline_exceeded("capabilities timed out"))?
+                .map(|r| r.into_inner())
+        });
+        let url = self.url(w);
+        match res {
+            Ok(cap) => {
+                tracing::info!(
+                    worker = %url,
+                    backend = %cap.backend,
+                    adapter = %cap.adapter,
+                    threads = cap.threads,
+                    memory_mb = cap.memory_bytes >> 20,
+                    gpu_memory_mb = cap.gpu_memory_bytes >> 20,
+                    "worker ready"
+                );
+                if let Ok(mut c) = self.capabilities.lock() {
+                    c[w] = Some(cap.clone());
+                }
+                if cap.protocol_version != ridgeline_proto::PROTOCOL_VERSION {
+                    self.alive[w].store(false, Ordering::SeqCst);
+                    return Err(format!("{url}: protocol version {}", cap.protocol_version));
+                }
+                self.alive[w].store(true, Ordering::SeqCst);
+                Ok(())
+            }
+            Err(s) => {
+                tracing::warn!(worker = %url, error = %s.message(), "worker unreachable");
+                self.alive[w].store(false, Ordering::SeqCst);
+                Err(format!("{url}: {} ({:?})", s.message(), s.code()))
+            }
+        }
+    }
+
+    /// Resolves the `dns:///` names again after a worker was lost: an address not yet
+    /// known takes a dead slot and joins once it answers. Returns how many joined.
+    pub(crate) fn rediscover(self: &Arc<Self>) -> usize {
+        if self.dns.is_empty() {
+            return 0;
+        }
+        let Ok(_one_at_a_time) = self.rediscovering.lock() else { return 0 };
+        let mut joined = 0;
+        for spec in &self.dns {
+            let found = match self.rt.block_on(resolve(spec, self.cfg.tls_ca.is_some())) {
+                Ok(f) => f,
+                Err(e) => {
+                    tracing::warn!(name = %spec, error = %e, "DNS re-resolution failed");
+                    continue;
+                }
+            };
+            for url in found {
+                let known = (0..self.urls.len()).find(|&w| self.url(w) == url);
+                if known.is_some_and(|w| self.alive[w].load(Ordering::SeqCst)) {
+                    continue;
+                }
+                // a worker seen before (restarted) keeps its slot; a new one takes a free one
+                let slot = known.or_else(|| (0..self.urls.len()).find(|&w| self.url(w).is_empty()));
+                let Some(w) = slot else { continue };
+                if let Ok(mut u) = self.urls[w].lock() {
+                    *u = url.clone();
+                }
+                if let Ok(mut c) = self.channels[w].lock() {
+                    *c = None;
+                }
+                if self.probe(w).is_ok() {
+                    tracing::info!(worker = %url, "worker joined by DNS");
+                    joined += 1;
+                }
+            }
+        }
+        joined
+    }
+
+    /// Worker `w`'s address.
+    pub fn url(&self, w: usize) -> String {
+        self.urls.get(w).and_then(|u| u.lock().ok().map(|u| u.clone())).unwrap_or_default()
     }
 
     /// What each worker said it scores on when it connected, in worker order.
@@ -169,10 +249,10 @@ impl Cluster {
 
     /// A worker's identity for throughput records: its address, backend and adapter.
     pub fn worker_key(&self, w: usize) -> String {
-        let url = &self.cfg.workers[w];
+        let url = self.url(w);
         match self.capabilities().get(w).cloned().flatten() {
             Some(c) => format!("{url} {} {}", c.backend, c.adapter),
-            None => url.clone(),
+            None => url,
         }
     }
 
@@ -183,7 +263,7 @@ impl Cluster {
 
     pub(crate) fn mark_dead(&self, w: usize, why: &Status) {
         if self.alive[w].swap(false, Ordering::SeqCst) {
-            tracing::warn!(worker = %self.cfg.workers[w], code = ?why.code(), error = %why.message(), "worker marked dead");
+            tracing::warn!(worker = %self.url(w), code = ?why.code(), error = %why.message(), "worker marked dead");
             ridgeline_worker::metrics::metrics().coordinator_workers_dead.inc();
         }
         if let Ok(mut c) = self.channels[w].lock() {
@@ -202,7 +282,7 @@ impl Cluster {
         let channel = match existing {
             Some(c) => c,
             None => {
-                let url = &self.cfg.workers[w];
+                let url = &self.url(w);
                 let mut ep = Endpoint::from_shared(url.clone())
                     .map_err(|e| Status::invalid_argument(format!("{url}: {e}")))?
                     .connect_timeout(Duration::from_secs(10))
@@ -225,5 +305,42 @@ impl Cluster {
         Ok(WorkerClient::with_interceptor(channel, self.auth.clone())
             .max_decoding_message_size(MAX_MESSAGE_BYTES)
             .max_encoding_message_size(MAX_MESSAGE_BYTES))
+    }
+}
+
+/// Worker entries of this form are resolved by DNS: every address behind the name (a
+/// Kubernetes headless Service lists one per ready pod).
+pub const DNS_SCHEME: &str = "dns:///";
+
+/// `dns:///host:port` to the `http://ip:port` (or `https://`) of every address behind
+/// it, sorted, so every coordinator sees the fleet in the same order.
+async fn resolve(spec: &str, tls: bool) -> Result<Vec<String>, String> {
+    let target = spec.trim_start_matches(DNS_SCHEME);
+    if target.rsplit_once(':').and_then(|(_, p)| p.parse::<u16>().ok()).is_none() {
+        return Err(format!("'{spec}': give dns:///NAME:PORT"));
+    }
+    let addrs = tokio::time::timeout(Duration::from_secs(10), tokio::net::lookup_host(target))
+        .await
+        .map_err(|_| format!("{spec}: DNS lookup timed out"))?
+        .map_err(|e| format!("{spec}: {e}"))?;
+    let scheme = if tls { "https" } else { "http" };
+    let mut urls: Vec<String> = addrs.map(|a| format!("{scheme}://{a}")).collect();
+    urls.sort();
+    urls.dedup();
+    Ok(urls)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dns_names_resolve_to_every_address_sorted() {
+        let rt = tokio::runtime::Builder::new_current_thread().enable_all().build().unwrap();
+        let urls = rt.block_on(resolve("dns:///localhost:7070", false)).unwrap();
+        assert!(!urls.is_empty() && urls.iter().all(|u| u.starts_with("http://") && u.ends_with(":7070")), "{urls:?}");
+        assert!(urls.windows(2).all(|p| p[0] < p[1]));
+        assert!(rt.block_on(resolve("dns:///localhost:7070", true)).unwrap()[0].starts_with("https://"));
+        assert!(rt.block_on(resolve("dns:///localhost", false)).unwrap_err().contains("NAME:PORT"));
     }
 }

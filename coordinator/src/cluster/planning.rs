@@ -113,7 +113,7 @@ pub fn remote_shards(
     let plan = plan_shards(&weights, &caps);
     for (j, part) in plan.iter().enumerate() {
         tracing::info!(
-            worker = %cluster.cfg.workers[live[j]],
+            worker = %cluster.url(live[j]),
             exemplars = part.len(),
             candidates = part.iter().map(|&k| weights[k]).sum::<u64>(),
             measured_msamples_per_s = rates[j].map(|r| r / 1e6),

@@ -99,7 +99,7 @@ impl RemoteShard {
                 .collect();
             client.put_exemplar(tokio_stream::iter(chunks)).await?;
             c.stats.add_exemplar(total);
-            tracing::info!(worker = %c.cfg.workers[w], exemplar = %e.wire.name, bytes = total, "exemplar uploaded");
+            tracing::info!(worker = %c.url(w), exemplar = %e.wire.name, bytes = total, "exemplar uploaded");
         }
         let req = v1::LoadShardRequest {
             shard_key: self.key.clone(),
@@ -132,7 +132,7 @@ impl RemoteShard {
                         self.fail_over(&mut st, &s)?;
                         continue;
                     }
-                    Err(s) => return Err(ShardError::BadRequest(format!("{}: {}", self.cluster.cfg.workers[w], s.message()))),
+                    Err(s) => return Err(ShardError::BadRequest(format!("{}: {}", self.cluster.url(w), s.message()))),
                 }
             }
             let mut last = Status::unknown("");
@@ -152,9 +152,9 @@ impl RemoteShard {
                             break;
                         }
                         if !retryable(&s) {
-                            return Err(ShardError::BadRequest(format!("{}: {}", self.cluster.cfg.workers[w], s.message())));
+                            return Err(ShardError::BadRequest(format!("{}: {}", self.cluster.url(w), s.message())));
                         }
-                        tracing::warn!(worker = %self.cluster.cfg.workers[w], attempt, error = %s.message(), "worker call failed");
+                        tracing::warn!(worker = %self.cluster.url(w), attempt, error = %s.message(), "worker call failed");
                         if attempt < 2 {
                             ridgeline_worker::metrics::metrics().coordinator_retries.inc();
                         }
@@ -172,6 +172,8 @@ impl RemoteShard {
     fn fail_over(&self, st: &mut ShardState, why: &Status) -> Result<(), ShardError> {
         let w = st.worker;
         self.cluster.mark_dead(w, why);
+        // a replaced or added pod behind a dns:/// name can take over
+        self.cluster.rediscover();
         st.stream = None;
         st.sources.clear();
         st.skipped.clear();
@@ -179,11 +181,11 @@ impl RemoteShard {
             ShardError::Unavailable(format!(
                 "no live worker left for {} (last error from {}: {})",
                 self.key,
-                self.cluster.cfg.workers[w],
+                self.cluster.url(w),
                 why.message()
             ))
         })?;
-        tracing::warn!(shard = %self.key, from = %self.cluster.cfg.workers[w], to = %self.cluster.cfg.workers[next], "shard reassigned");
+        tracing::warn!(shard = %self.key, from = %self.cluster.url(w), to = %self.cluster.url(next), "shard reassigned");
         ridgeline_worker::metrics::metrics().coordinator_reassignments.inc();
         st.worker = next;
         Ok(())
@@ -242,9 +244,9 @@ impl ShardScorer for RemoteShard {
     fn backend(&self) -> String {
         let w = self.state.lock().map(|s| s.worker).unwrap_or(0);
         match self.cluster.capabilities().get(w).cloned().flatten() {
-            Some(c) if c.backend == "gpu" => format!("worker {}: gpu: {}", self.cluster.cfg.workers[w], c.adapter),
-            Some(c) => format!("worker {}: {}", self.cluster.cfg.workers[w], c.backend),
-            None => format!("worker {}", self.cluster.cfg.workers[w]),
+            Some(c) if c.backend == "gpu" => format!("worker {}: gpu: {}", self.cluster.url(w), c.adapter),
+            Some(c) => format!("worker {}: {}", self.cluster.url(w), c.backend),
+            None => format!("worker {}", self.cluster.url(w)),
         }
     }
 
