@@ -223,6 +223,28 @@ fn workers_are_found_by_dns() {
 }
 
 #[test]
+fn a_worker_restarted_behind_a_dns_name_is_found_again_mid_job() {
+    let Some(data) = shared_data() else { return };
+    let d = temp_dir("cluster-dns-restart");
+    let reference = job(&data, &d.join("cache"), None).unwrap();
+    let mut first = WorkerProc::start(&d.join("w"), Some(TOKEN));
+    let addr = first.url.trim_start_matches("http://").to_string();
+    let port = addr.rsplit(':').next().unwrap().to_string();
+    let cfg = ClusterConfig {
+        workers: vec![format!("dns:///localhost:{port}")],
+        token: Some(TOKEN.into()),
+        call_timeout: std::time::Duration::from_secs(20),
+        ..Default::default()
+    };
+    let cluster = Cluster::connect(cfg).expect("connect by DNS");
+    // the only worker dies and comes back on the same address (a pod restarted)
+    first.kill();
+    let _second = WorkerProc::start_on(&addr, &d.join("w"), Some(TOKEN), &["--gpu", "off"]);
+    let got = job(&data, &d.join("cache"), Some(cluster)).expect("the job finds the worker again");
+    assert!(got == reference, "same bytes after the worker came back");
+}
+
+#[test]
 fn the_health_service_answers_without_the_token() {
     use tonic_health::pb::{health_check_response::ServingStatus, health_client::HealthClient, HealthCheckRequest};
     let d = temp_dir("cluster-health");

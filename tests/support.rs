@@ -58,9 +58,14 @@ impl WorkerProc {
 
     /// As [`WorkerProc::start`], with more command-line arguments.
     pub fn start_with(data_dir: &std::path::Path, token: Option<&str>, args: &[&str]) -> WorkerProc {
+        Self::start_on("127.0.0.1:0", data_dir, token, args)
+    }
+
+    /// As [`WorkerProc::start_with`], listening on `listen`.
+    pub fn start_on(listen: &str, data_dir: &std::path::Path, token: Option<&str>, args: &[&str]) -> WorkerProc {
         use std::io::BufRead;
         let mut c = std::process::Command::new(ridgeline_bin());
-        c.args(["worker", "--listen", "127.0.0.1:0", "--threads", "1", "--data-dir"]).arg(data_dir).args(args);
+        c.args(["worker", "--listen", listen, "--threads", "1", "--data-dir"]).arg(data_dir).args(args);
         c.env_remove("RIDGELINE_TOKEN").env("RUST_LOG", "info");
         if let Some(t) = token {
             c.args(["--token", t]);
