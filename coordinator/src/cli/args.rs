@@ -1,0 +1,184 @@
+//! The command line's arguments (clap): `synth`, `worker`, `fetch-dem` and the global
+//! log format.
+
+use clap::{Parser, Subcommand, ValueEnum};
+use ridgeline::fetch_dem::DEFAULT_URL;
+use std::path::PathBuf;
+
+#[derive(Parser)]
+#[command(name = "ridgeline", version, about = "Terrain synthesis from a sketch and real elevation data")]
+pub struct Cli {
+    /// Log format on stderr: human-readable text, or JSON (one event per line, job id on each).
+    #[arg(long, value_enum, default_value_t = LogFormat::Text, global = true)]
+    pub log_format: LogFormat,
+    #[command(subcommand)]
+    pub cmd: Cmd,
+}
+
+#[derive(Clone, Copy, ValueEnum, PartialEq)]
+pub enum LogFormat {
+    Text,
+    Json,
+}
+
+#[derive(Subcommand)]
+pub enum Cmd {
+    /// Synthesise a terrain from a sketch and a library of exemplar DEMs.
+    Synth(SynthArgs),
+    /// Download public elevation tiles (Terrarium) for an area and write them as an exemplar library.
+    FetchDem(FetchArgs),
+    /// Serve round-1 and hole-fill scoring to coordinators over gRPC.
+    Worker(WorkerArgs),
+}
+
+#[derive(clap::Args)]
+pub struct WorkerArgs {
+    /// Address to listen on (port 0 picks a free port; the bound address is printed).
+    #[arg(long)]
+    pub listen: std::net::SocketAddr,
+    /// Cluster token callers must present (or RIDGELINE_TOKEN). Required unless the
+    /// worker listens on a loopback address.
+    #[arg(long, env = "RIDGELINE_TOKEN", hide_env_values = true)]
+    pub token: Option<String>,
+    /// Folder for uploaded exemplars (by content hash) and their feature cache.
+    #[arg(long)]
+    pub data_dir: Option<PathBuf>,
+    /// Scoring threads (0 = all cores).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// TLS certificate and key (PEM); without them the worker speaks plain HTTP/2.
+    #[arg(long, requires = "tls_key")]
+    pub tls_cert: Option<PathBuf>,
+    #[arg(long, requires = "tls_cert")]
+    pub tls_key: Option<PathBuf>,
+    /// Largest exemplar upload accepted, in MiB.
+    #[arg(long, default_value_t = 2048)]
+    pub max_exemplar_mb: u64,
+    /// Score on the GPU: auto (a real GPU if present, else the CPU), on (fail without
+    /// one), off, or software (any Vulkan adapter, Mesa's lavapipe included: for
+    /// testing). The output bytes do not depend on it.
+    #[arg(long, default_value = "auto")]
+    pub gpu: ridgeline_worker::GpuMode,
+    /// Seconds a new connection may stay silent before it is closed.
+    #[arg(long, default_value_t = 10)]
+    pub handshake_timeout_s: u64,
+    /// Most established connections (a connection over it is closed and logged), and
+    /// most from one caller address.
+    #[arg(long, default_value_t = 256)]
+    pub max_connections: usize,
+    #[arg(long, default_value_t = 64)]
+    pub max_per_caller: usize,
+    /// Serve Prometheus metrics (GET /metrics) on this address.
+    #[arg(long)]
+    pub metrics_listen: Option<std::net::SocketAddr>,
+}
+
+#[derive(clap::Args)]
+pub struct SynthArgs {
+    /// Sketch PNG: background 128, white strokes = ridges, black strokes = valleys.
+    #[arg(long)]
+    pub sketch: PathBuf,
+    /// Exemplar library: a folder of DEMs (.png, .tif, .hgt, .asc; a dems.csv may give
+    /// cell_size_m and vertical_unit per file) or a manifest (.toml or .json).
+    #[arg(long)]
+    pub exemplars: PathBuf,
+    /// Output heightfield: .tif (32-bit float metres), .png (16-bit) or .r16 (raw 16-bit
+    /// little-endian); 16-bit outputs get a .json sidecar mapping samples to metres.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Patch side in cells.
+    #[arg(long, default_value_t = 64)]
+    pub patch_size: usize,
+    /// Seed: different seeds give different terrains for the same sketch.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Worker threads (0 = all cores). The output does not depend on it.
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// Output cell size in metres (default: the library's most common).
+    #[arg(long)]
+    pub cell_size: Option<f32>,
+    /// Also write the terrain as N x N-sample tiles sharing their borders
+    /// (`{stem}_x{col}_y{row}.{ext}` and `{stem}_tiles.json`).
+    #[arg(long)]
+    pub tiles: Option<usize>,
+    /// Feature cache folder (default: $RIDGELINE_CACHE, $XDG_CACHE_HOME/ridgeline or ~/.cache/ridgeline).
+    #[arg(long)]
+    pub cache_dir: Option<PathBuf>,
+    /// Do not read or write the feature cache.
+    #[arg(long)]
+    pub no_cache: bool,
+    /// Also write a hillshade preview PNG here.
+    #[arg(long)]
+    pub preview: Option<PathBuf>,
+    /// Write debug images here: detected sketch lines, the terrain before hole
+    /// filling, and a provenance map with legend.
+    #[arg(long)]
+    pub debug_dir: Option<PathBuf>,
+    /// Also write a JSON report (per-stage timings, counts, cache hits, exemplars used) here.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// Refuse images with a side longer than this, before allocating them.
+    #[arg(long, default_value_t = ridgeline_terrain::io::DEFAULT_MAX_SIDE)]
+    pub max_side: u32,
+    /// Score on these gRPC workers (comma-separated URLs, e.g. http://10.0.0.5:7070)
+    /// instead of in-process.
+    #[arg(long, value_delimiter = ',', conflicts_with = "workers_file")]
+    pub workers: Vec<String>,
+    /// A file with one worker URL per line (# comments allowed).
+    #[arg(long)]
+    pub workers_file: Option<PathBuf>,
+    /// Cluster token (or RIDGELINE_TOKEN).
+    #[arg(long, env = "RIDGELINE_TOKEN", hide_env_values = true)]
+    pub token: Option<String>,
+    /// CA certificate (PEM) to verify https:// workers.
+    #[arg(long)]
+    pub tls_ca: Option<PathBuf>,
+    /// Deadline of one worker call, in seconds; a worker that misses it is treated as dead.
+    #[arg(long, default_value_t = 120)]
+    pub call_timeout_s: u64,
+    /// User patches per round-1 block.
+    #[arg(long, default_value_t = 16)]
+    pub block_size: usize,
+    /// Score in-process shards on the GPU: auto (a real GPU if present, else the CPU),
+    /// on (fail without one), off, or software (any Vulkan adapter, Mesa's lavapipe
+    /// included: for testing). The output bytes do not depend on it.
+    #[arg(long, default_value = "auto")]
+    pub gpu: ridgeline_worker::GpuMode,
+    /// Memory budget (512M, 8G, 1.5GiB): a job estimated to need more is refused
+    /// before any work, saying how much it needs. Default: the memory available now
+    /// (MemAvailable, or the container's limit).
+    #[arg(long, value_parser = ridgeline::memory_budget::parse_size)]
+    pub max_memory: Option<u64>,
+    /// Serve Prometheus metrics (GET /metrics) on this address while the job runs.
+    #[arg(long)]
+    pub metrics_listen: Option<std::net::SocketAddr>,
+}
+
+#[derive(clap::Args)]
+pub struct FetchArgs {
+    /// Bounding box west,south,east,north in degrees.
+    #[arg(long, conflicts_with = "area")]
+    pub bbox: Option<String>,
+    /// A named area (alps, rockies, himalaya, andes, appalachians, highlands, grand-canyon, norway).
+    #[arg(long)]
+    pub area: Option<String>,
+    /// Tile zoom level (10 ≈ 150 m cells at the equator, 11 ≈ 76 m).
+    #[arg(long, default_value_t = 10)]
+    pub zoom: u32,
+    /// Folder to write the exemplar and manifest.toml into.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Name of the exemplar file (default: the area name, or "bbox").
+    #[arg(long)]
+    pub name: Option<String>,
+    /// Tile URL template with {z}, {x}, {y}; or a local folder laid out {z}/{x}/{y}.png.
+    #[arg(long, default_value = DEFAULT_URL)]
+    pub source: String,
+    /// Tile cache folder (default: the feature cache folder).
+    #[arg(long)]
+    pub cache_dir: Option<PathBuf>,
+    /// Refuse areas needing more tiles than this.
+    #[arg(long, default_value_t = 64)]
+    pub max_tiles: usize,
+}
