@@ -27,3 +27,6 @@ bash scripts/check-deploy.sh
 cargo fmt --all -- --check
 cargo clippy --workspace --all-targets --release -- -D warnings
 cargo test --workspace --release
+# the optional OpenTelemetry export (a cargo feature, off by default): lint and test it
+cargo clippy -p ridgeline --release --features otlp --all-targets -- -D warnings
+cargo test -p ridgeline --release --features otlp --test otlp

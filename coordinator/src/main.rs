@@ -26,7 +26,13 @@ fn main() -> std::process::ExitCode {
     let interactive = std::io::stderr().is_terminal() && cli.log_format == LogFormat::Text;
     // on a terminal the progress bars carry the news; logs stay at warn unless RUST_LOG says otherwise
     let default_level = if interactive { "warn" } else { "info" };
-    cli::telemetry::init_logging(cli.log_format, default_level);
+    let _otlp = match cli::telemetry::init_logging(cli.log_format, default_level, cli.otlp_endpoint.as_deref()) {
+        Ok(g) => g,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            return std::process::ExitCode::FAILURE;
+        }
+    };
     if !matches!(cli.cmd, Cmd::Worker(_)) {
         cli::signals::on_signal_clean_up_and_exit();
     }

@@ -11,6 +11,10 @@ pub struct Cli {
     /// Log format on stderr: human-readable text, or JSON (one event per line, job id on each).
     #[arg(long, value_enum, default_value_t = LogFormat::Text, global = true)]
     pub log_format: LogFormat,
+    /// Export the tracing spans (job, stages, worker calls) over OTLP/gRPC to this
+    /// collector, e.g. http://otel-collector:4317 (builds with `--features otlp`).
+    #[arg(long, global = true, env = "RIDGELINE_OTLP_ENDPOINT")]
+    pub otlp_endpoint: Option<String>,
     #[command(subcommand)]
     pub cmd: Cmd,
 }

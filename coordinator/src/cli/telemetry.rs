@@ -45,23 +45,83 @@ pub fn progress_bars() -> Progress {
 
 /// Installs the log subscriber on stderr: text (colour codes only on a terminal, never
 /// into a file or pipe) or JSON (one event per line with its spans, so the job id is on
-/// each); `RUST_LOG` overrides `default_level`.
-pub fn init_logging(format: LogFormat, default_level: &str) {
+/// each); `RUST_LOG` overrides `default_level`. With `otlp` (a collector's address) the
+/// spans are also exported over OTLP; keep the returned guard until the end of `main`,
+/// whose drop flushes them.
+pub fn init_logging(format: LogFormat, default_level: &str, otlp: Option<&str>) -> anyhow::Result<Option<OtlpGuard>> {
+    use tracing_subscriber::layer::SubscriberExt;
+    use tracing_subscriber::util::SubscriberInitExt;
+    use tracing_subscriber::Layer;
     let filter = tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| default_level.into());
-    match format {
-        // colour codes only on a terminal, never into a log file or pipe
-        LogFormat::Text => tracing_subscriber::fmt()
-            .with_ansi(std::io::stderr().is_terminal())
-            .with_env_filter(filter)
-            .with_writer(std::io::stderr)
-            .init(),
-        LogFormat::Json => tracing_subscriber::fmt()
+    let fmt = match format {
+        LogFormat::Text => {
+            tracing_subscriber::fmt::layer().with_ansi(std::io::stderr().is_terminal()).with_writer(std::io::stderr).boxed()
+        }
+        LogFormat::Json => tracing_subscriber::fmt::layer()
             .json()
             .with_ansi(false)
             .with_current_span(true)
             .with_span_list(true)
-            .with_env_filter(filter)
             .with_writer(std::io::stderr)
-            .init(),
+            .boxed(),
+    };
+    let subscriber = tracing_subscriber::registry().with(filter).with(fmt);
+    match otlp {
+        None => {
+            subscriber.init();
+            Ok(None)
+        }
+        Some(endpoint) => {
+            let (layer, guard) = otlp_layer(endpoint)?;
+            subscriber.with(layer).init();
+            Ok(Some(guard))
+        }
     }
+}
+
+#[cfg(not(feature = "otlp"))]
+pub struct OtlpGuard;
+
+#[cfg(not(feature = "otlp"))]
+fn otlp_layer(endpoint: &str) -> anyhow::Result<(tracing_subscriber::layer::Identity, OtlpGuard)> {
+    anyhow::bail!(
+        "--otlp-endpoint {endpoint}: this ridgeline was built without OpenTelemetry export; build it with `cargo build --release --features otlp`"
+    )
+}
+
+/// Keeps the OTLP exporter's runtime alive and flushes the spans on drop.
+#[cfg(feature = "otlp")]
+pub struct OtlpGuard {
+    provider: opentelemetry_sdk::trace::SdkTracerProvider,
+    _rt: tokio::runtime::Runtime,
+}
+
+#[cfg(feature = "otlp")]
+impl Drop for OtlpGuard {
+    fn drop(&mut self) {
+        if let Err(e) = self.provider.shutdown() {
+            eprintln!("warning: OpenTelemetry spans not all exported: {e}");
+        }
+    }
+}
+
+/// A tracing layer exporting spans to the collector at `endpoint` over OTLP/gRPC, in
+/// batches from a background thread (the exporter's client lives on its own runtime).
+#[cfg(feature = "otlp")]
+fn otlp_layer<S>(endpoint: &str) -> anyhow::Result<(impl tracing_subscriber::Layer<S>, OtlpGuard)>
+where
+    S: tracing::Subscriber + for<'a> tracing_subscriber::registry::LookupSpan<'a>,
+{
+    use anyhow::Context;
+    use opentelemetry::trace::TracerProvider;
+    use opentelemetry_otlp::WithExportConfig;
+    let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build()?;
+    let exporter = rt
+        .block_on(async { opentelemetry_otlp::SpanExporter::builder().with_tonic().with_endpoint(endpoint).build() })
+        .with_context(|| format!("--otlp-endpoint {endpoint}"))?;
+    let resource = opentelemetry_sdk::Resource::builder().with_service_name("ridgeline").build();
+    let provider =
+        opentelemetry_sdk::trace::SdkTracerProvider::builder().with_resource(resource).with_batch_exporter(exporter).build();
+    let tracer = provider.tracer("ridgeline");
+    Ok((tracing_opentelemetry::layer().with_tracer(tracer), OtlpGuard { provider, _rt: rt }))
 }
