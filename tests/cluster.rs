@@ -245,6 +245,40 @@ fn a_worker_restarted_behind_a_dns_name_is_found_again_mid_job() {
 }
 
 #[test]
+fn every_coordinator_log_line_of_a_fleet_job_names_the_job() {
+    let Some(data) = shared_data() else { return };
+    let d = temp_dir("cluster-job-id");
+    let w = WorkerProc::start(&d.join("w"), Some(TOKEN));
+    // a second worker that is not there: its warnings must carry the job id too
+    let dead = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap();
+    let o = std::process::Command::new(ridgeline_tests::ridgeline_bin())
+        .args(["--log-format", "json", "synth", "--gpu", "off", "--token", TOKEN, "--sketch"])
+        .arg(data.join("sketches/small-range-512.png"))
+        .arg("--exemplars")
+        .arg(data.join("dems"))
+        .arg("--out")
+        .arg(d.join("t.tif"))
+        .arg("--cache-dir")
+        .arg(d.join("cache"))
+        .arg("--workers")
+        .arg(format!("{},http://{dead}", w.url))
+        .env("RUST_LOG", "info")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    let (mut events, mut warnings) = (0, 0);
+    for line in err.lines() {
+        let v: serde_json::Value = serde_json::from_str(line).unwrap_or_else(|e| panic!("not JSON ({e}): {line}"));
+        let id = v["spans"].as_array().and_then(|s| s.iter().find_map(|sp| sp["job_id"].as_str())).map(str::to_string);
+        assert!(id.is_some(), "event without job id: {line}");
+        events += 1;
+        warnings += (v["level"] == "WARN") as usize;
+    }
+    assert!(events > 10 && warnings >= 1, "{events} events, {warnings} warnings");
+}
+
+#[test]
 fn the_health_service_answers_without_the_token() {
     use tonic_health::pb::{health_check_response::ServingStatus, health_client::HealthClient, HealthCheckRequest};
     let d = temp_dir("cluster-health");
