@@ -9,7 +9,8 @@
 //!   output centre).
 
 /// The files `--debug-dir` holds after a job.
-pub const DEBUG_FILES: [&str; 4] = ["sketch_features.png", "features_only.png", "provenance.png", "provenance.json"];
+pub const DEBUG_FILES: [&str; 5] =
+    ["sketch_features.png", "features_only.png", "provenance.png", "provenance.json", "provenance_cells.u32"];
 
 use crate::pipeline::SynthOutput;
 use font8x8::UnicodeFonts;
@@ -169,5 +170,8 @@ pub fn write_debug_outputs(dir: &Path, out: &SynthOutput, sketch: &Grid<u8>, cel
         .collect();
     let p = dir.join("provenance.json");
     let bytes = serde_json::to_vec_pretty(&recs).map_err(|e| ridgeline_terrain::TerrainError::Other(e.to_string()))?;
-    write_atomic(&p, &bytes)
+    write_atomic(&p, &bytes)?;
+    // which placement each cell came from, for `ridgeline evaluate --provenance`
+    let cells: Vec<u8> = out.canvas.provenance.data.iter().flat_map(|c| c.to_le_bytes()).collect();
+    write_atomic(&dir.join(crate::evaluation::PROVENANCE_CELLS), &cells)
 }

@@ -5,6 +5,7 @@ pub mod base_surface;
 pub mod canvas;
 pub mod cluster;
 pub mod debug_outputs;
+pub mod evaluation;
 pub mod feature_placement;
 pub mod fetch_dem;
 pub mod graph_cut;

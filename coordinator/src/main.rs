@@ -7,7 +7,7 @@ mod cli;
 
 use anyhow::{bail, Context, Result};
 use clap::Parser;
-use cli::args::{Cli, Cmd, FetchArgs, LogFormat, SynthArgs, WorkerArgs};
+use cli::args::{Cli, Cmd, EvaluateArgs, FetchArgs, LogFormat, SynthArgs, WorkerArgs};
 use cli::checks::{check_collisions, check_out, worker_urls};
 use cli::telemetry::{job_id, progress_bars, JOB_ID};
 use ridgeline::fetch_dem::{fetch_area, write_exemplar, BBox, DirSource, HttpSource, TileSource};
@@ -57,6 +57,7 @@ fn run(cmd: Cmd, interactive: bool, human: bool) -> Result<()> {
     match cmd {
         Cmd::Synth(a) => synth(a, interactive, human),
         Cmd::FetchDem(a) => fetch(a),
+        Cmd::Evaluate(a) => evaluate(a),
         Cmd::Worker(a) => worker(a),
     }
 }
@@ -180,8 +181,24 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
     if let Some(d) = &a.debug_dir {
         ridgeline::debug_outputs::write_debug_outputs(d, &out, &out.sketch_image, cell.unwrap_or(1.0))?;
     }
-    let mut report = out.report;
-    report.stages.push(ridgeline::pipeline::StageTiming { stage: "write", seconds: t.elapsed().as_secs_f64() });
+    let write_s = t.elapsed().as_secs_f64();
+    let mut report = out.report.clone();
+    if a.report.is_some() {
+        // the realism figures against the sources this terrain was made from
+        let te = std::time::Instant::now();
+        let provenance = ridgeline::evaluation::provenance_of(&out);
+        let sources = ridgeline::evaluation::load_sources(&a.exemplars, cell, Some(&provenance))?;
+        report.evaluation = Some(ridgeline::evaluation::evaluate(&ridgeline::evaluation::Inputs {
+            terrain: out.terrain(),
+            cell_m: cell.unwrap_or(90.0),
+            sketch: Some(&out.sketch),
+            patch: a.patch_size,
+            sources: &sources,
+            provenance: Some(&provenance),
+        }));
+        report.stages.push(ridgeline::pipeline::StageTiming { stage: "evaluation", seconds: te.elapsed().as_secs_f64() });
+    }
+    report.stages.push(ridgeline::pipeline::StageTiming { stage: "write", seconds: write_s });
     if let Some(p) = &a.report {
         ridgeline_terrain::io::write_atomic(p, &serde_json::to_vec_pretty(&report)?)?;
     }
@@ -260,5 +277,53 @@ fn fetch(a: FetchArgs) -> Result<()> {
         a.out.display(),
         manifest.display()
     );
+    Ok(())
+}
+
+fn evaluate(a: EvaluateArgs) -> Result<()> {
+    use ridgeline::evaluation;
+    if a.patch_size < 8 || a.patch_size > 512 {
+        bail!("--patch-size {}: give the job's patch size (8 to 512)", a.patch_size);
+    }
+    let terrain = ridgeline_terrain::outputs::read_heightfield(&a.terrain, ridgeline_terrain::io::DEFAULT_MAX_SIDE)
+        .with_context(|| format!("{}: cannot read the terrain", a.terrain.display()))?;
+    let sketch = match &a.sketch {
+        Some(p) => {
+            let s = ridgeline_terrain::io::read_sketch(p, ridgeline_terrain::io::DEFAULT_MAX_SIDE)?;
+            if (s.width, s.height) != (terrain.width, terrain.height) {
+                bail!("{}: {} x {} but the terrain is {} x {}", p.display(), s.width, s.height, terrain.width, terrain.height);
+            }
+            Some(ridgeline::sketch::analyse(&s, a.patch_size))
+        }
+        None => None,
+    };
+    let provenance = match &a.provenance {
+        Some(p) => Some(evaluation::read_provenance(p, terrain.data.len()).map_err(|e| anyhow::anyhow!(e))?),
+        None => None,
+    };
+    let specs = ridgeline_terrain::library::scan_library(&a.exemplars)?;
+    let cell = a.cell_size.or_else(|| ridgeline_terrain::library::common_cell_size(&specs));
+    if let Some(c) = a.cell_size {
+        if !(c.is_finite() && c > 0.0) {
+            bail!("--cell-size {c}: give a positive number of metres");
+        }
+    }
+    let sources = evaluation::load_sources(&a.exemplars, cell, provenance.as_ref())?;
+    if sources.is_empty() {
+        bail!("{}: no exemplar of the library supplied this terrain (is it the job's library?)", a.exemplars.display());
+    }
+    let e = evaluation::evaluate(&evaluation::Inputs {
+        terrain: &terrain,
+        cell_m: cell.unwrap_or(90.0),
+        sketch: sketch.as_ref(),
+        patch: a.patch_size,
+        sources: &sources,
+        provenance: provenance.as_ref(),
+    });
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&e)?);
+    } else {
+        print!("{}", e.table());
+    }
     Ok(())
 }

@@ -224,6 +224,10 @@ pub struct SynthReport {
     pub shards: Vec<ShardReport>,
     /// Peak resident memory of the process so far (Linux `VmHWM`), when known.
     pub peak_rss_bytes: Option<u64>,
+    /// How real the terrain is against its sources (`synth --report` fills it in;
+    /// see `evaluation`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub evaluation: Option<crate::evaluation::Evaluation>,
 }
 
 /// One shard's part in a job.

@@ -196,6 +196,41 @@ fn outputs_tiles_debug_report_and_json_logs() {
         .unwrap();
     assert!(o.status.success());
     assert_eq!(ridgeline_terrain::outputs::read_heightfield(&r16, 4096).unwrap(), full, "same job, same quantisation");
+    // the report carries the realism figures, and `evaluate` gives the same from the files
+    let ev = &report["evaluation"];
+    for k in ["landform_distance", "spectral_slope_difference", "roughness_ratio", "repetition", "ridge_adherence"] {
+        assert!(ev[k].is_number(), "report evaluation lacks {k}: {ev}");
+    }
+    assert!(ev["seams"]["mean_ratio"].is_number());
+    let o = bin()
+        .args(["evaluate", "--json", "--patch-size", "32", "--terrain"])
+        .arg(&out)
+        .arg("--sketch")
+        .arg(&sketch)
+        .arg("--exemplars")
+        .arg(&lib)
+        .arg("--provenance")
+        .arg(d.join("debug/provenance.json"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let e: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let sum: f64 = e["landforms"]["fractions"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).sum();
+    assert!((sum - 1.0).abs() < 1e-6);
+    // from the 16-bit file: the same landforms and repetition as the report's (from the float terrain)
+    assert_eq!(e["repetition"], ev["repetition"]);
+    assert!((e["landform_distance"].as_f64().unwrap() - ev["landform_distance"].as_f64().unwrap()).abs() < 0.05);
+    // a provenance of another terrain is refused, naming the file
+    let (ok, err) = stderr_of(
+        bin()
+            .args(["evaluate", "--terrain"])
+            .arg(&r16)
+            .arg("--exemplars")
+            .arg(&lib)
+            .arg("--provenance")
+            .arg(d.join("preview.png")),
+    );
+    assert!(!ok && err.contains("preview.png"), "{err}");
 }
 
 #[test]

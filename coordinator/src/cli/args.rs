@@ -31,6 +31,9 @@ pub enum Cmd {
     Synth(SynthArgs),
     /// Download public elevation tiles (Terrarium) for an area and write them as an exemplar library.
     FetchDem(FetchArgs),
+    /// Measure how real a terrain is against the exemplars it came from (adherence,
+    /// landforms, spectrum, roughness, seams, repetition).
+    Evaluate(EvaluateArgs),
     /// Serve round-1 and hole-fill scoring to coordinators over gRPC.
     Worker(WorkerArgs),
 }
@@ -185,4 +188,30 @@ pub struct FetchArgs {
     /// Refuse areas needing more tiles than this.
     #[arg(long, default_value_t = 64)]
     pub max_tiles: usize,
+}
+
+#[derive(clap::Args)]
+pub struct EvaluateArgs {
+    /// The terrain (.tif, .png with its sidecar, .r16 with its sidecar).
+    #[arg(long)]
+    pub terrain: PathBuf,
+    /// The sketch it was made from (for ridge and valley adherence).
+    #[arg(long)]
+    pub sketch: Option<PathBuf>,
+    /// The exemplar library it was made from.
+    #[arg(long)]
+    pub exemplars: PathBuf,
+    /// provenance.json of the job's --debug-dir (with provenance_cells.u32 beside it):
+    /// weights the sources by their share and enables the seam and repetition figures.
+    #[arg(long)]
+    pub provenance: Option<PathBuf>,
+    /// Patch side the job used.
+    #[arg(long, default_value_t = 64)]
+    pub patch_size: usize,
+    /// Output cell size in metres; default: the library's most common.
+    #[arg(long)]
+    pub cell_size: Option<f32>,
+    /// Print the figures as JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
 }

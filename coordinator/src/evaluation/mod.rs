@@ -1,0 +1,287 @@
+//! How real a terrain is, measured against the exemplars it was made from
+//! (`ridgeline evaluate`, and the `evaluation` of `synth --report`):
+//! - sketch adherence: at sampled centre-line points of the sketch's ridges (valleys),
+//!   the share whose cross profile at half-width patch/2 has the centre above (below)
+//!   both sides (`quality::adherence`);
+//! - landforms: the geomorphon histogram of the terrain and its total-variation
+//!   distance to the sources' histograms, weighted by each source's share of the
+//!   output ([`landforms`]);
+//! - spectral slope and roughness: the terrain's radially averaged power spectrum
+//!   against the weighted sources' ([`spectrum`]); the roughness ratio is the
+//!   terrain's high/mid-frequency energy over the sources' (1 = as rough);
+//! - seams: gradient jumps across placement boundaries against those inside
+//!   placements (`quality::seam_score`; needs the per-cell provenance);
+//! - repetition: the share of the output covered by placements whose source window
+//!   overlaps that of another placement from the same source within
+//!   [`REPEAT_RADIUS_PATCHES`] patches (needs the provenance).
+//!
+//! Sources' weights come from the provenance (cells per exemplar); without it every
+//! exemplar of the library weighs the same.
+
+pub mod landforms;
+pub mod spectrum;
+
+use crate::quality::{adherence, seam_score, SeamScore};
+use crate::sketch::SketchFeatures;
+use landforms::Landforms;
+use ridgeline_terrain::grid::Heightfield;
+use ridgeline_terrain::FeatureKind;
+use std::collections::BTreeMap;
+
+/// Placements whose centres are within this many patches count as "nearby" for
+/// repetition.
+pub const REPEAT_RADIUS_PATCHES: f32 = 3.0;
+
+/// One placement as the provenance records it.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PlacedPatch {
+    pub exemplar: String,
+    pub src_x: u32,
+    pub src_y: u32,
+    pub cx: usize,
+    pub cy: usize,
+}
+
+/// Where each output cell came from: `cells[i]` indexes `placements` (`u32::MAX`:
+/// nothing placed there).
+#[derive(Debug, Clone)]
+pub struct Provenance {
+    pub cells: Vec<u32>,
+    pub placements: Vec<PlacedPatch>,
+}
+
+/// Every figure of an evaluation (see the module header).
+#[derive(Debug, Clone, Default, serde::Serialize)]
+pub struct Evaluation {
+    /// Cross-profile half-width of the adherence test, in cells.
+    pub profile_half_width_cells: f32,
+    pub ridge_adherence: Option<f64>,
+    pub valley_adherence: Option<f64>,
+    pub landforms: Landforms,
+    pub source_landforms: Landforms,
+    /// Total-variation distance between the two histograms (0 to 1).
+    pub landform_distance: f64,
+    pub spectral_slope: Option<f64>,
+    pub source_spectral_slope: Option<f64>,
+    /// Terrain's slope minus the sources' (negative: falls steeper, smoother).
+    pub spectral_slope_difference: Option<f64>,
+    /// Terrain's high/mid-frequency energy over the sources' (1 = as rough).
+    pub roughness_ratio: Option<f64>,
+    pub seams: Option<SeamScore>,
+    /// Share of the output copied from a source window already used nearby.
+    pub repetition: Option<f64>,
+    /// Each source's weight (its share of the placed output cells, or equal).
+    pub source_weights: BTreeMap<String, f64>,
+}
+
+/// What an evaluation compares.
+pub struct Inputs<'a> {
+    pub terrain: &'a Heightfield,
+    /// Horizontal cell size in metres (geomorphon lookup distance).
+    pub cell_m: f32,
+    pub sketch: Option<&'a SketchFeatures>,
+    pub patch: usize,
+    /// The library's exemplars at the output's cell size, by name.
+    pub sources: &'a [(String, Heightfield)],
+    pub provenance: Option<&'a Provenance>,
+}
+
+/// Evaluates a terrain; see the module header.
+pub fn evaluate(i: &Inputs) -> Evaluation {
+    let half = i.patch as f32 / 2.0;
+    let mut e = Evaluation { profile_half_width_cells: half, ..Default::default() };
+    if let Some(sk) = i.sketch {
+        let a = |g, kind| {
+            let a = adherence(i.terrain, g, kind, half, 4, i.patch / 2);
+            (a.sampled > 0).then(|| a.fraction())
+        };
+        e.ridge_adherence = a(&sk.ridges, FeatureKind::Ridge);
+        e.valley_adherence = a(&sk.valleys, FeatureKind::Valley);
+    }
+    e.source_weights = weights(i.sources, i.provenance);
+    let weighted = |name: &String| e.source_weights.get(name).copied().unwrap_or(0.0);
+    e.landforms = Landforms::of(&landforms::classify(i.terrain, i.cell_m));
+    let src_landforms: Vec<(Landforms, f64)> = i
+        .sources
+        .iter()
+        .filter(|(n, _)| weighted(n) > 0.0)
+        .map(|(n, h)| (Landforms::of(&landforms::classify(h, i.cell_m)), weighted(n)))
+        .collect();
+    e.source_landforms = Landforms::mix(&src_landforms);
+    e.landform_distance = e.landforms.distance(&e.source_landforms);
+    let own = spectrum::spectrum(i.terrain);
+    let src: Vec<(spectrum::Spectrum, f64)> = i
+        .sources
+        .iter()
+        .filter(|(n, _)| weighted(n) > 0.0)
+        .filter_map(|(n, h)| spectrum::spectrum(h).map(|s| (s, weighted(n))))
+        .collect();
+    let src = spectrum::Spectrum::mix(&src);
+    e.spectral_slope = own.as_ref().map(|s| s.slope());
+    e.source_spectral_slope = src.as_ref().map(|s| s.slope());
+    if let (Some(a), Some(b)) = (&own, &src) {
+        e.spectral_slope_difference = Some(a.slope() - b.slope());
+        e.roughness_ratio = (b.roughness() > 0.0).then(|| a.roughness() / b.roughness());
+    }
+    if let Some(p) = i.provenance {
+        if p.cells.len() == i.terrain.data.len() {
+            e.seams = Some(seam_score(i.terrain, &p.cells));
+            e.repetition = Some(repetition(p, i.patch));
+        }
+    }
+    e
+}
+
+/// Each source's share of the placed cells; equal shares without a provenance.
+fn weights(sources: &[(String, Heightfield)], prov: Option<&Provenance>) -> BTreeMap<String, f64> {
+    let mut w: BTreeMap<String, f64> = BTreeMap::new();
+    if let Some(p) = prov {
+        let mut per_placement = vec![0u64; p.placements.len()];
+        for &c in &p.cells {
+            if let Some(n) = per_placement.get_mut(c as usize) {
+                *n += 1;
+            }
+        }
+        let total: u64 = per_placement.iter().sum();
+        for (pl, n) in p.placements.iter().zip(per_placement) {
+            *w.entry(pl.exemplar.clone()).or_default() += n as f64 / total.max(1) as f64;
+        }
+        w.retain(|name, _| sources.iter().any(|(n, _)| n == name));
+        if !w.is_empty() {
+            return w;
+        }
+    }
+    sources.iter().map(|(n, _)| (n.clone(), 1.0 / sources.len().max(1) as f64)).collect()
+}
+
+/// Share of the output cells whose placement copies a source window that overlaps
+/// (by more than half a patch each way) the window of an earlier placement from the
+/// same source, centred within [`REPEAT_RADIUS_PATCHES`] patches.
+pub fn repetition(p: &Provenance, patch: usize) -> f64 {
+    let radius = REPEAT_RADIUS_PATCHES * patch.max(1) as f32;
+    let half = (patch / 2) as i64;
+    // placements bucketed by source and by a grid of the radius, so each looks only
+    // at its neighbours
+    let cell = |v: usize| (v as f32 / radius) as i64;
+    let mut buckets: BTreeMap<(&str, i64, i64), Vec<usize>> = BTreeMap::new();
+    for (i, pl) in p.placements.iter().enumerate() {
+        buckets.entry((pl.exemplar.as_str(), cell(pl.cx), cell(pl.cy))).or_default().push(i);
+    }
+    let mut repeated = vec![false; p.placements.len()];
+    for (j, pj) in p.placements.iter().enumerate() {
+        let (bx, by) = (cell(pj.cx), cell(pj.cy));
+        'earlier: for dy in -1..=1 {
+            for dx in -1..=1 {
+                let Some(list) = buckets.get(&(pj.exemplar.as_str(), bx + dx, by + dy)) else { continue };
+                for &i in list.iter().take_while(|&&i| i < j) {
+                    let pi = &p.placements[i];
+                    let near = ((pi.cx as f32 - pj.cx as f32).powi(2) + (pi.cy as f32 - pj.cy as f32).powi(2)).sqrt() <= radius;
+                    let same =
+                        (pi.src_x as i64 - pj.src_x as i64).abs() < half && (pi.src_y as i64 - pj.src_y as i64).abs() < half;
+                    if near && same {
+                        repeated[j] = true;
+                        break 'earlier;
+                    }
+                }
+            }
+        }
+    }
+    let placed = p.cells.iter().filter(|&&c| (c as usize) < repeated.len()).count();
+    let rep = p.cells.iter().filter(|&&c| repeated.get(c as usize).copied().unwrap_or(false)).count();
+    if placed > 0 {
+        rep as f64 / placed as f64
+    } else {
+        0.0
+    }
+}
+
+/// The per-cell provenance file written beside `provenance.json` in a debug folder:
+/// one little-endian u32 placement index per output cell, row by row.
+pub const PROVENANCE_CELLS: &str = "provenance_cells.u32";
+
+/// Reads a debug folder's `provenance.json` (placements) and the cells file beside it,
+/// for a terrain of `cells` cells.
+pub fn read_provenance(json: &std::path::Path, cells: usize) -> Result<Provenance, String> {
+    let bytes = std::fs::read(json).map_err(|e| format!("{}: {e}", json.display()))?;
+    let placements: Vec<PlacedPatch> =
+        serde_json::from_slice(&bytes).map_err(|e| format!("{}: not a provenance.json of ridgeline ({e})", json.display()))?;
+    let raw_path = json.with_file_name(PROVENANCE_CELLS);
+    let raw = std::fs::read(&raw_path).map_err(|e| format!("{}: {e}", raw_path.display()))?;
+    if raw.len() != cells * 4 {
+        return Err(format!(
+            "{}: {} bytes, but the terrain has {cells} cells (4 bytes each): from another job?",
+            raw_path.display(),
+            raw.len()
+        ));
+    }
+    let cells: Vec<u32> = raw.chunks_exact(4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect();
+    if let Some(bad) = cells.iter().find(|&&c| c != u32::MAX && c as usize >= placements.len()) {
+        return Err(format!("{}: placement {bad} is not in {}", raw_path.display(), json.display()));
+    }
+    Ok(Provenance { cells, placements })
+}
+
+/// A finished job's provenance.
+pub fn provenance_of(out: &crate::pipeline::SynthOutput) -> Provenance {
+    let name = |src: u32| out.report.exemplars.iter().find(|e| e.source == src).map(|e| e.name.clone()).unwrap_or_default();
+    Provenance {
+        cells: out.canvas.provenance.data.clone(),
+        placements: out
+            .canvas
+            .placements
+            .iter()
+            .map(|p| PlacedPatch { exemplar: name(p.source), src_x: p.src_x, src_y: p.src_y, cx: p.cx, cy: p.cy })
+            .collect(),
+    }
+}
+
+/// Loads the library's exemplars at the output cell size `cell` (only those named in
+/// `wanted`, when given), by file name.
+pub fn load_sources(
+    library: &std::path::Path,
+    cell: Option<f32>,
+    wanted: Option<&Provenance>,
+) -> Result<Vec<(String, Heightfield)>, ridgeline_terrain::TerrainError> {
+    let specs = ridgeline_terrain::library::scan_library(library)?;
+    let used = |n: &String| wanted.is_none_or(|p| p.placements.iter().any(|pl| &pl.exemplar == n));
+    let mut out = Vec::new();
+    for spec in specs {
+        let name = spec.name();
+        if !used(&name) {
+            continue;
+        }
+        let h = ridgeline_terrain::library::load_exemplar(&spec, cell, ridgeline_terrain::io::DEFAULT_MAX_SIDE)?;
+        out.push((name, h));
+    }
+    Ok(out)
+}
+
+impl Evaluation {
+    /// The figures as a table for people.
+    pub fn table(&self) -> String {
+        let opt = |v: Option<f64>, digits: usize| v.map(|v| format!("{v:.digits$}")).unwrap_or_else(|| "-".into());
+        let mut t = String::new();
+        let mut row = |k: &str, v: String, note: &str| t.push_str(&format!("{k:<28} {v:>10}  {note}\n"));
+        let hw = self.profile_half_width_cells;
+        row("ridge adherence", opt(self.ridge_adherence, 3), &format!("cross profile at ±{hw} cells"));
+        row("valley adherence", opt(self.valley_adherence, 3), &format!("cross profile at ±{hw} cells"));
+        row("landform distance", format!("{:.3}", self.landform_distance), "total variation vs the sources (0 = same)");
+        row("spectral slope", opt(self.spectral_slope, 2), &format!("sources {}", opt(self.source_spectral_slope, 2)));
+        row("spectral slope difference", opt(self.spectral_slope_difference, 2), "negative: smoother than the sources");
+        row("roughness ratio", opt(self.roughness_ratio, 2), "high/mid-frequency energy vs the sources (1 = as rough)");
+        row("seam score", opt(self.seams.map(|s| s.mean_ratio), 2), "gradient jumps across seams / inside patches");
+        row("repetition", opt(self.repetition, 3), "share copied from a source window used nearby");
+        t.push_str("landforms (terrain / sources):\n");
+        for (i, c) in landforms::CLASSES.iter().enumerate() {
+            t.push_str(&format!(
+                "  {c:<12} {:>6.1}% {:>6.1}%\n",
+                100.0 * self.landforms.fractions[i],
+                100.0 * self.source_landforms.fractions[i]
+            ));
+        }
+        t
+    }
+}
+
+#[cfg(test)]
+mod tests;
