@@ -283,5 +283,25 @@ impl Evaluation {
     }
 }
 
+/// A (2r+1)² box blur of the interior (the border `r` cells kept): the smoothing the
+/// tests hold the figures against.
+#[cfg(test)]
+pub(crate) fn box_blur(h: &Heightfield, r: usize) -> Heightfield {
+    let mut out = h.clone();
+    let n = ((2 * r + 1) * (2 * r + 1)) as f32;
+    for y in r..h.height - r {
+        for x in r..h.width - r {
+            let mut m = 0.0;
+            for yy in y - r..=y + r {
+                for xx in x - r..=x + r {
+                    m += h.get(xx, yy);
+                }
+            }
+            out.set(x, y, m / n);
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests;

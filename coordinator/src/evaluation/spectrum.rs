@@ -203,18 +203,7 @@ mod tests {
         let s = spectrum(&rough).unwrap();
         assert!(s.slope() < -1.0 && s.slope() > -4.5, "slope {}", s.slope());
         // a 3 x 3 box blur removes high frequencies: steeper slope, less roughness
-        let mut blurred = rough.clone();
-        for y in 1..511 {
-            for x in 1..511 {
-                let mut m = 0.0;
-                for dy in 0..3 {
-                    for dx in 0..3 {
-                        m += rough.get(x + dx - 1, y + dy - 1);
-                    }
-                }
-                blurred.set(x, y, m / 9.0);
-            }
-        }
+        let blurred = crate::evaluation::box_blur(&rough, 1);
         let b = spectrum(&blurred).unwrap();
         assert!(b.slope() < s.slope() - 0.3, "blur steepens the slope: {} vs {}", b.slope(), s.slope());
         assert!(b.roughness() < 0.5 * s.roughness(), "blur smooths: {} vs {}", b.roughness(), s.roughness());

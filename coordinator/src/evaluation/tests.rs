@@ -53,19 +53,7 @@ fn a_real_crop_scores_as_real_and_a_blurred_one_does_not() {
     assert!(d.abs() < 0.35, "slope difference {d}");
     let r = e.roughness_ratio.unwrap();
     assert!((0.75..1.33).contains(&r), "roughness ratio {r}");
-    // 5 x 5 box blur
-    let mut blur = real.clone();
-    for y in 2..382 {
-        for x in 2..382 {
-            let mut m = 0.0;
-            for dy in 0..5 {
-                for dx in 0..5 {
-                    m += real.get(x + dx - 2, y + dy - 2);
-                }
-            }
-            blur.set(x, y, m / 25.0);
-        }
-    }
+    let blur = box_blur(&real, 2);
     let b = eval(&blur, &dem, None);
     assert!(b.roughness_ratio.unwrap() < 0.5 * r, "blurred roughness {} vs {r}", b.roughness_ratio.unwrap());
     assert!(b.spectral_slope_difference.unwrap() < d - 0.3, "blurred slope {}", b.spectral_slope_difference.unwrap());
