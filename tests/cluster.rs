@@ -279,6 +279,25 @@ fn every_coordinator_log_line_of_a_fleet_job_names_the_job() {
 }
 
 #[test]
+fn a_worker_that_answers_probes_but_fails_its_calls_is_not_retried_forever() {
+    let Some(data) = shared_data() else { return };
+    let d = temp_dir("cluster-dns-bounded");
+    let w = WorkerProc::start(&d.join("w"), Some(TOKEN));
+    let port = w.url.rsplit(':').next().unwrap().to_string();
+    // the worker's exemplar folder turns into a file: every upload fails (internal
+    // error, retryable) while capabilities still answer
+    std::fs::remove_dir_all(d.join("w/exemplars")).unwrap();
+    std::fs::write(d.join("w/exemplars"), b"sabotage").unwrap();
+    let cfg =
+        ClusterConfig { workers: vec![format!("dns:///localhost:{port}")], token: Some(TOKEN.into()), ..Default::default() };
+    let cluster = Cluster::connect(cfg).expect("connect by DNS");
+    let t = std::time::Instant::now();
+    let err = job(&data, &d.join("cache"), Some(cluster)).unwrap_err();
+    assert!(err.contains("no live worker"), "{err}");
+    assert!(t.elapsed().as_secs() < 120, "gave up only after {:?}", t.elapsed());
+}
+
+#[test]
 fn the_health_service_answers_without_the_token() {
     use tonic_health::pb::{health_check_response::ServingStatus, health_client::HealthClient, HealthCheckRequest};
     let d = temp_dir("cluster-health");

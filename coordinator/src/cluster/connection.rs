@@ -5,7 +5,7 @@ use super::{ClusterConfig, ClusterError};
 use ridgeline_proto::v1;
 use ridgeline_proto::v1::worker_client::WorkerClient;
 use ridgeline_proto::MAX_MESSAGE_BYTES;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use tonic::service::interceptor::InterceptedService;
@@ -76,6 +76,10 @@ pub struct Cluster {
     /// The `dns:///` entries of `cfg.workers`, re-resolved when a worker is lost.
     dns: Vec<String>,
     rediscovering: Mutex<()>,
+    /// Times each slot's worker was taken back after being marked dead; bounded by
+    /// [`MAX_REVIVALS`], so a worker that answers probes but fails its calls cannot
+    /// keep a job retrying forever.
+    revivals: Vec<AtomicU32>,
     auth: Auth,
     channels: Vec<Mutex<Option<Channel>>>,
     pub(crate) alive: Vec<AtomicBool>,
@@ -136,6 +140,7 @@ impl Cluster {
             urls: urls.into_iter().map(Mutex::new).collect(),
             dns,
             rediscovering: Mutex::new(()),
+            revivals: (0..n).map(|_| AtomicU32::new(0)).collect(),
             auth,
             channels: (0..n).map(|_| Mutex::new(None)).collect(),
             alive: (0..n).map(|w| AtomicBool::new(w < active)).collect(),
@@ -219,9 +224,16 @@ impl Cluster {
                 if known.is_some_and(|w| self.alive[w].load(Ordering::SeqCst)) {
                     continue;
                 }
-                // a worker seen before (restarted) keeps its slot; a new one takes a free one
+                // a worker seen before (restarted) keeps its slot, a bounded number of
+                // times; a new one takes a free one
+                if known.is_some_and(|w| self.revivals[w].load(Ordering::SeqCst) >= MAX_REVIVALS) {
+                    continue;
+                }
                 let slot = known.or_else(|| (0..self.urls.len()).find(|&w| self.url(w).is_empty()));
                 let Some(w) = slot else { continue };
+                if known.is_some() {
+                    self.revivals[w].fetch_add(1, Ordering::SeqCst);
+                }
                 if let Ok(mut u) = self.urls[w].lock() {
                     *u = url.clone();
                 }
@@ -307,6 +319,9 @@ impl Cluster {
             .max_encoding_message_size(MAX_MESSAGE_BYTES))
     }
 }
+
+/// How often a worker found dead is taken back by DNS re-resolution.
+pub const MAX_REVIVALS: u32 = 2;
 
 /// Worker entries of this form are resolved by DNS: every address behind the name (a
 /// Kubernetes headless Service lists one per ready pod).
