@@ -6,11 +6,23 @@
 //! - `provenance.png`: every cell coloured by the exemplar it came from, patch
 //!   borders dark, featureless (hole-filling) patches lighter, with a legend strip;
 //! - `provenance.json`: every placed patch (exemplar, source position, variant,
-//!   output centre).
+//!   output centre), with `provenance_cells.u32` (the placement of every cell);
+//! - `landforms.png`: the geomorphon landforms of the output (left) beside those of
+//!   the exemplar that supplied most of it, with a legend (`evaluation::landforms`);
+//! - `seams.png`: the hillshade in grey with every placement boundary coloured by
+//!   its gradient jump against the 99th percentile of jumps inside patches (yellow
+//!   at that percentile, red at twice it and above): where a seam would show.
 
 /// The files `--debug-dir` holds after a job.
-pub const DEBUG_FILES: [&str; 5] =
-    ["sketch_features.png", "features_only.png", "provenance.png", "provenance.json", "provenance_cells.u32"];
+pub const DEBUG_FILES: [&str; 7] = [
+    "sketch_features.png",
+    "features_only.png",
+    "provenance.png",
+    "provenance.json",
+    "provenance_cells.u32",
+    "landforms.png",
+    "seams.png",
+];
 
 use crate::pipeline::SynthOutput;
 use font8x8::UnicodeFonts;
@@ -143,8 +155,103 @@ struct PlacementRecord<'a> {
     featureless: bool,
 }
 
+/// Colours of the 10 geomorphon classes (in `landforms::CLASSES` order).
+const LANDFORM_COLOURS: [[u8; 3]; 10] = [
+    [220, 220, 220], // flat
+    [140, 0, 0],     // peak
+    [220, 40, 40],   // ridge
+    [255, 165, 120], // shoulder
+    [255, 220, 60],  // spur
+    [240, 240, 160], // slope
+    [140, 200, 90],  // hollow
+    [120, 200, 220], // footslope
+    [40, 90, 220],   // valley
+    [20, 20, 120],   // pit
+];
+
+fn landform_image(classes: &[u8], w: usize, h: usize) -> RgbImage {
+    RgbImage::from_fn(w as u32, h as u32, |x, y| {
+        let c = classes[y as usize * w + x as usize];
+        Rgb(LANDFORM_COLOURS.get(c as usize).copied().unwrap_or([0, 0, 0]))
+    })
+}
+
+/// The output's landforms beside the main source's, with a legend below.
+fn landforms_view(out: &SynthOutput, source: Option<(&str, &ridgeline_terrain::grid::Heightfield)>, cell: f32) -> RgbImage {
+    use crate::evaluation::landforms::{classify, CLASSES};
+    let t = out.terrain();
+    let left = landform_image(&classify(t, cell), t.width, t.height);
+    let right = source.map(|(name, h)| (name, landform_image(&classify(h, cell), h.width, h.height)));
+    let gap = 8u32;
+    let rw = right.as_ref().map(|r| r.1.width() + gap).unwrap_or(0);
+    let body_h = left.height().max(right.as_ref().map(|r| r.1.height()).unwrap_or(0));
+    let legend_h = 14 + 12 * CLASSES.len() as u32;
+    let mut img = RgbImage::from_pixel(left.width() + rw, body_h + legend_h, Rgb([255, 255, 255]));
+    image::imageops::replace(&mut img, &left, 0, 0);
+    if let Some((_, r)) = &right {
+        image::imageops::replace(&mut img, r, (left.width() + gap) as i64, 0);
+    }
+    let caption = match &right {
+        Some((name, _)) => format!("left: this terrain; right: {name}"),
+        None => "this terrain".to_string(),
+    };
+    draw_text(&mut img, 4, body_h + 2, &caption, [0, 0, 0]);
+    for (i, c) in CLASSES.iter().enumerate() {
+        let y = body_h + 14 + 12 * i as u32;
+        for dy in 0..9 {
+            for dx in 0..9 {
+                if 4 + dx < img.width() && y + dy < img.height() {
+                    img.put_pixel(4 + dx, y + dy, Rgb(LANDFORM_COLOURS[i]));
+                }
+            }
+        }
+        draw_text(&mut img, 18, y, c, [0, 0, 0]);
+    }
+    img
+}
+
+/// Placement boundaries coloured by gradient jump over the hillshade (see the header).
+fn seams_view(out: &SynthOutput, cell: f32) -> RgbImage {
+    let t = out.terrain();
+    let prov = &out.canvas.provenance.data;
+    let w = t.width;
+    let shade = hillshade(t, cell);
+    let (mut inside, mut seams): (Vec<f64>, Vec<(usize, f64)>) = (Vec::new(), Vec::new());
+    crate::quality::visit_edges(t, prov, |cell, jump, across| {
+        if across {
+            seams.push((cell, jump));
+        } else {
+            inside.push(jump);
+        }
+    });
+    inside.sort_by(|a, b| a.total_cmp(b));
+    let p99 = inside.get(inside.len() * 99 / 100).copied().unwrap_or(1.0).max(1e-9);
+    let mut img = RgbImage::from_fn(w as u32, t.height as u32, |x, y| {
+        let g = shade.get_pixel(x, y).0[0] / 2 + 64;
+        Rgb([g, g, g])
+    });
+    for (i, j) in seams {
+        let r = (j / p99).min(2.0);
+        if r < 0.5 {
+            continue;
+        }
+        // green (below the yardstick) through yellow (at it) to red (twice it)
+        let col = if r < 1.0 { [(255.0 * r) as u8, 200, 0] } else { [255, (200.0 * (2.0 - r)) as u8, 0] };
+        img.put_pixel((i % w) as u32, (i / w) as u32, Rgb(col));
+    }
+    img
+}
+
 /// Writes the debug outputs of a finished job into `dir` (created if needed).
-pub fn write_debug_outputs(dir: &Path, out: &SynthOutput, sketch: &Grid<u8>, cell: f32) -> ridgeline_terrain::Result<()> {
+/// `library` (the job's exemplars) lets `landforms.png` show the main source's
+/// landforms beside the output's.
+pub fn write_debug_outputs(
+    dir: &Path,
+    out: &SynthOutput,
+    sketch: &Grid<u8>,
+    cell: f32,
+    library: Option<&Path>,
+) -> ridgeline_terrain::Result<()> {
     ridgeline_terrain::staging::create_output_dir(dir)
         .map_err(|source| ridgeline_terrain::TerrainError::Write { path: dir.to_path_buf(), cause: source.into() })?;
     write_rgb_png(&dir.join("sketch_features.png"), &sketch_overlay(out, sketch))?;
@@ -173,5 +280,20 @@ pub fn write_debug_outputs(dir: &Path, out: &SynthOutput, sketch: &Grid<u8>, cel
     write_atomic(&p, &bytes)?;
     // which placement each cell came from, for `ridgeline evaluate --provenance`
     let cells: Vec<u8> = out.canvas.provenance.data.iter().flat_map(|c| c.to_le_bytes()).collect();
-    write_atomic(&dir.join(crate::evaluation::PROVENANCE_CELLS), &cells)
+    write_atomic(&dir.join(crate::evaluation::PROVENANCE_CELLS), &cells)?;
+    // the source that supplied most cells, at the output's cell size
+    let prov = crate::evaluation::provenance_of(out);
+    let main_source = library.and_then(|lib| {
+        let sources = crate::evaluation::load_sources(lib, Some(cell), Some(&prov)).ok()?;
+        let mut cells_of: std::collections::BTreeMap<&str, usize> = std::collections::BTreeMap::new();
+        for &c in &prov.cells {
+            if let Some(pl) = prov.placements.get(c as usize) {
+                *cells_of.entry(pl.exemplar.as_str()).or_default() += 1;
+            }
+        }
+        let best = cells_of.into_iter().max_by(|a, b| a.1.cmp(&b.1).then(b.0.cmp(a.0)))?.0.to_string();
+        sources.into_iter().find(|(n, _)| *n == best)
+    });
+    write_rgb_png(&dir.join("landforms.png"), &landforms_view(out, main_source.as_ref().map(|(n, h)| (n.as_str(), h)), cell))?;
+    write_rgb_png(&dir.join("seams.png"), &seams_view(out, cell))
 }

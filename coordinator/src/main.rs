@@ -179,7 +179,7 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
         ridgeline_terrain::io::write_rgb_png(p, &ridgeline_terrain::io::hillshade(out.terrain(), cell.unwrap_or(1.0)))?;
     }
     if let Some(d) = &a.debug_dir {
-        ridgeline::debug_outputs::write_debug_outputs(d, &out, &out.sketch_image, cell.unwrap_or(1.0))?;
+        ridgeline::debug_outputs::write_debug_outputs(d, &out, &out.sketch_image, cell.unwrap_or(1.0), Some(&a.exemplars))?;
     }
     let write_s = t.elapsed().as_secs_f64();
     let mut report = out.report.clone();

@@ -133,13 +133,14 @@ impl LogHistogram {
     }
 }
 
-/// Seam score of a terrain whose cell `i` came from placement `provenance[i]`
-/// (`u32::MAX`: none; such cells are left out).
-pub fn seam_score(h: &Heightfield, provenance: &[u32]) -> SeamScore {
+/// Visits every run of 4 cells in a row or column whose two outer pairs each lie in
+/// one placement: `f(cell, jump, across)` with the run's second cell, its gradient
+/// jump (|Δ²| at the two inner cells, summed) and whether the middle edge crosses a
+/// placement boundary (`u32::MAX` cells, nothing placed, are left out). The one home
+/// of what a seam is, for [`seam_score`] and the debug seam view.
+pub fn visit_edges(h: &Heightfield, provenance: &[u32], mut f: impl FnMut(usize, f64, bool)) {
     let (w, hh) = (h.width, h.height);
     assert_eq!(provenance.len(), w * hh, "provenance must cover the terrain");
-    let (mut seam, mut inside) = (LogHistogram::new(), LogHistogram::new());
-    let (mut seam_sum, mut inside_sum) = (0f64, 0f64);
     let mut visit = |cells: [usize; 4]| {
         let p = cells.map(|c| provenance[c]);
         if p.contains(&u32::MAX) || p[0] != p[1] || p[2] != p[3] {
@@ -147,14 +148,7 @@ pub fn seam_score(h: &Heightfield, provenance: &[u32]) -> SeamScore {
         }
         let v = cells.map(|c| h.data[c] as f64);
         let (gl, gc, gr) = (v[1] - v[0], v[2] - v[1], v[3] - v[2]);
-        let jump = (gc - gl).abs() + (gr - gc).abs();
-        if p[1] == p[2] {
-            inside.add(jump);
-            inside_sum += jump;
-        } else {
-            seam.add(jump);
-            seam_sum += jump;
-        }
+        f(cells[1], (gc - gl).abs() + (gr - gc).abs(), p[1] != p[2]);
     };
     for y in 0..hh {
         for x in 1..w.saturating_sub(2) {
@@ -168,6 +162,22 @@ pub fn seam_score(h: &Heightfield, provenance: &[u32]) -> SeamScore {
             visit([i - w, i, i + w, i + 2 * w]);
         }
     }
+}
+
+/// Seam score of a terrain whose cell `i` came from placement `provenance[i]`
+/// (`u32::MAX`: none; such cells are left out).
+pub fn seam_score(h: &Heightfield, provenance: &[u32]) -> SeamScore {
+    let (mut seam, mut inside) = (LogHistogram::new(), LogHistogram::new());
+    let (mut seam_sum, mut inside_sum) = (0f64, 0f64);
+    visit_edges(h, provenance, |_, jump, across| {
+        if across {
+            seam.add(jump);
+            seam_sum += jump;
+        } else {
+            inside.add(jump);
+            inside_sum += jump;
+        }
+    });
     let ratio = |a: f64, b: f64| if b > 0.0 { a / b } else { 0.0 };
     SeamScore {
         seam_edges: seam.n as usize,

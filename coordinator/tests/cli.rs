@@ -172,9 +172,15 @@ fn outputs_tiles_debug_report_and_json_logs() {
     assert_eq!((full.width, full.height), (192, 160));
     let tiles = ridgeline_terrain::outputs::read_tiles(&d.join("terrain_tiles.json"), 4096).unwrap();
     assert_eq!(tiles, full, "tiles reassemble into the full terrain exactly");
-    for f in
-        ["debug/sketch_features.png", "debug/features_only.png", "debug/provenance.png", "debug/provenance.json", "preview.png"]
-    {
+    for f in [
+        "debug/sketch_features.png",
+        "debug/features_only.png",
+        "debug/provenance.png",
+        "debug/provenance.json",
+        "debug/landforms.png",
+        "debug/seams.png",
+        "preview.png",
+    ] {
         assert!(d.join(f).is_file(), "{f} missing");
     }
     let report: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("report.json")).unwrap()).unwrap();
