@@ -67,6 +67,8 @@ pub fn classify(h: &Heightfield, cell_m: f32) -> Vec<u8> {
             let (mut plus, mut minus, mut seen) = (0, 0, 0);
             for &(dx, dy) in &DIRS {
                 let step = cell_m * ((dx * dx + dy * dy) as f32).sqrt();
+                // steepest rise and fall as gradients; the angle (atan, monotonic) is
+                // taken once per direction
                 let (mut up, mut down) = (f32::NEG_INFINITY, f32::NEG_INFINITY);
                 for k in 1..=lookup {
                     let (xx, yy) = (x as i32 + dx * k, y as i32 + dy * k);
@@ -77,13 +79,14 @@ pub fn classify(h: &Heightfield, cell_m: f32) -> Vec<u8> {
                     if !z.is_finite() {
                         break;
                     }
-                    let a = ((z - z0) / (step * k as f32)).atan();
-                    up = up.max(a);
-                    down = down.max(-a);
+                    let g = (z - z0) / (step * k as f32);
+                    up = up.max(g);
+                    down = down.max(-g);
                 }
                 if up == f32::NEG_INFINITY {
                     continue;
                 }
+                let (up, down) = (up.atan(), down.atan());
                 seen += 1;
                 if up - down > flat {
                     plus += 1;
