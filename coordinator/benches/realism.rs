@@ -1,0 +1,215 @@
+//! Realism benchmark (issue 9): sketches drawn here and exemplar libraries that hold
+//! some of the shared DEMs out, each pair synthesised and measured with the figures of
+//! `ridgeline evaluate` (`ridgeline::evaluation`), so changes to the engine are judged
+//! on cases it was not tuned on. Also prints the yardstick: how far the shared real
+//! DEMs are from each other (each against the rest, leave-one-out), the spread a
+//! terrain "as real as its sources" should fall in.
+//!
+//! Sketches (512 x 512): curves (sinusoidal ridges 3 px, valleys 9 px), junctions
+//! (a Y of ridges, a T of valleys), parallel ridges 18 px apart (2 px), strokes
+//! touching the border (15 px), thin 1-px strokes, and a dense mix. Libraries: the
+//! even-numbered DEMs, the odd-numbered ones, and a small one of four.
+//!
+//! `cargo bench -p ridgeline --bench realism` (RIDGELINE_BENCH_SEED, default 0).
+
+mod common;
+
+use common::shared_data;
+use ridgeline::evaluation::{self, landforms, spectrum, Evaluation, Inputs};
+use ridgeline::pipeline::{run_job, SynthConfig};
+use ridgeline_terrain::grid::Grid;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+const SIDE: usize = 512;
+
+/// A grey sketch with strokes drawn by `draw(x, y) -> Some(value)`.
+fn sketch(draw: impl Fn(f32, f32) -> Option<u8>) -> Grid<u8> {
+    Grid::from_vec(SIDE, SIDE, (0..SIDE * SIDE).map(|i| draw((i % SIDE) as f32, (i / SIDE) as f32).unwrap_or(128)).collect())
+}
+
+/// Distance from (x, y) to the segment a-b.
+fn seg(x: f32, y: f32, a: (f32, f32), b: (f32, f32)) -> f32 {
+    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+    let t = (((x - a.0) * dx + (y - a.1) * dy) / (dx * dx + dy * dy)).clamp(0.0, 1.0);
+    ((x - a.0 - t * dx).powi(2) + (y - a.1 - t * dy).powi(2)).sqrt()
+}
+
+fn sketches() -> Vec<(&'static str, Grid<u8>)> {
+    const RIDGE: Option<u8> = Some(255);
+    const VALLEY: Option<u8> = Some(0);
+    vec![
+        (
+            "curves",
+            sketch(|x, y| {
+                if (y - 150.0 - 40.0 * (x / 60.0).sin()).abs() < 1.5 && (40.0..470.0).contains(&x) {
+                    RIDGE
+                } else if (y - 360.0 - 50.0 * (x / 90.0 + 1.0).cos()).abs() < 4.5 && (30.0..480.0).contains(&x) {
+                    VALLEY
+                } else {
+                    None
+                }
+            }),
+        ),
+        (
+            "junctions",
+            sketch(|x, y| {
+                let y_ridge = seg(x, y, (256.0, 250.0), (256.0, 60.0)) < 2.5
+                    || seg(x, y, (256.0, 250.0), (90.0, 420.0)) < 2.5
+                    || seg(x, y, (256.0, 250.0), (430.0, 420.0)) < 2.5;
+                let t_valley = seg(x, y, (60.0, 470.0), (450.0, 470.0)) < 3.5 || seg(x, y, (420.0, 470.0), (420.0, 320.0)) < 3.5;
+                if y_ridge {
+                    RIDGE
+                } else if t_valley {
+                    VALLEY
+                } else {
+                    None
+                }
+            }),
+        ),
+        (
+            "parallel",
+            sketch(|x, y| {
+                let on = |c: f32| seg(x, y, (60.0, c), (450.0, c + 60.0)) < 1.0;
+                if on(120.0) || on(138.0) || on(156.0) {
+                    RIDGE
+                } else if on(330.0) {
+                    VALLEY
+                } else {
+                    None
+                }
+            }),
+        ),
+        (
+            "border",
+            sketch(|x, y| {
+                if seg(x, y, (0.0, 100.0), (511.0, 300.0)) < 7.5 {
+                    RIDGE
+                } else if seg(x, y, (200.0, 511.0), (511.0, 380.0)) < 7.5 {
+                    VALLEY
+                } else {
+                    None
+                }
+            }),
+        ),
+        (
+            "thin",
+            sketch(|x, y| {
+                if seg(x, y, (50.0, 80.0), (300.0, 200.0)) < 0.6 || seg(x, y, (300.0, 200.0), (460.0, 120.0)) < 0.6 {
+                    RIDGE
+                } else if seg(x, y, (40.0, 420.0), (470.0, 300.0)) < 0.6 {
+                    VALLEY
+                } else {
+                    None
+                }
+            }),
+        ),
+        (
+            "dense",
+            sketch(|x, y| {
+                for k in 0..4 {
+                    let c = 70.0 + 115.0 * k as f32;
+                    if (y - c - 25.0 * ((x + 37.0 * k as f32) / 45.0).sin()).abs() < 2.0 {
+                        return if k % 2 == 0 { RIDGE } else { VALLEY };
+                    }
+                }
+                None
+            }),
+        ),
+    ]
+}
+
+/// A library of the DEMs whose index `keep` accepts, as symlinks and a dems.csv.
+fn library(dems: &Path, dir: &Path, keep: impl Fn(usize) -> bool) -> PathBuf {
+    let _ = std::fs::remove_dir_all(dir);
+    std::fs::create_dir_all(dir).expect("library dir");
+    let csv = std::fs::read_to_string(dems.join("dems.csv")).expect("dems.csv");
+    let mut lines = csv.lines();
+    let mut out = vec![lines.next().unwrap_or_default().to_string()];
+    for (i, line) in lines.enumerate().filter(|(i, _)| keep(*i)) {
+        let _ = i;
+        let file = line.split(',').next().unwrap_or_default();
+        std::os::unix::fs::symlink(dems.join(file).canonicalize().expect("dem"), dir.join(file)).expect("link");
+        out.push(line.to_string());
+    }
+    std::fs::write(dir.join("dems.csv"), out.join("\n") + "\n").expect("csv");
+    dir.to_path_buf()
+}
+
+fn row(name: &str, e: &Evaluation, seconds: f64) {
+    let o = |v: Option<f64>| v.map(|v| format!("{v:>6.2}")).unwrap_or_else(|| format!("{:>6}", "-"));
+    println!(
+        "{name:<22} {} {} {:>6.3} {} {} {} {:>6.3} {:>6.1}",
+        o(e.ridge_adherence),
+        o(e.valley_adherence),
+        e.landform_distance,
+        o(e.spectral_slope_difference),
+        o(e.roughness_ratio),
+        o(e.seams.map(|s| s.mean_ratio)),
+        e.repetition.unwrap_or(0.0),
+        seconds
+    );
+}
+
+fn main() {
+    let Some(data) = shared_data() else { return };
+    let dems = data.join("dems");
+    let seed = std::env::var("RIDGELINE_BENCH_SEED").ok().and_then(|v| v.parse().ok()).unwrap_or(0);
+    let dir = std::env::temp_dir().join(format!("ridgeline-realism-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let libs = [
+        ("even", library(&dems, &dir.join("lib-even"), |i| i % 2 == 0)),
+        ("odd", library(&dems, &dir.join("lib-odd"), |i| i % 2 == 1)),
+        ("four", library(&dems, &dir.join("lib-four"), |i| [1, 6, 9, 14].contains(&i))),
+    ];
+    let cache = dir.join("cache");
+    println!("ridgeline realism benchmark: 6 drawn sketches x held-out libraries, seed {seed}");
+    println!(
+        "{:<22} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6}",
+        "sketch / library", "ridge", "valley", "landf", "slope", "rough", "seam", "repet", "s"
+    );
+    for (k, (name, sk)) in sketches().into_iter().enumerate() {
+        let (lname, lib) = &libs[k % libs.len()];
+        let path = dir.join(format!("{name}.png"));
+        image::GrayImage::from_raw(SIDE as u32, SIDE as u32, sk.data.clone()).expect("sketch").save(&path).expect("save");
+        let cfg = SynthConfig { cache_dir: Some(cache.clone()), seed, ..Default::default() };
+        let t = Instant::now();
+        let out = run_job(&path, lib, &cfg).expect("synthesis");
+        let seconds = t.elapsed().as_secs_f64();
+        let cell = out.report.cell_size_m;
+        let prov = evaluation::provenance_of(&out);
+        let sources = evaluation::load_sources(lib, cell, Some(&prov)).expect("sources");
+        let e = evaluation::evaluate(&Inputs {
+            terrain: out.terrain(),
+            cell_m: cell.unwrap_or(90.0),
+            sketch: Some(&out.sketch),
+            patch: cfg.patch,
+            sources: &sources,
+            provenance: Some(&prov),
+        });
+        row(&format!("{name} / {lname}"), &e, seconds);
+    }
+    // the yardstick: each shared DEM against the others (equal weights)
+    let all = evaluation::load_sources(&dems, Some(90.0), None).expect("dems");
+    let forms: Vec<landforms::Landforms> =
+        all.iter().map(|(_, h)| landforms::Landforms::of(&landforms::classify(h, 90.0))).collect();
+    let spectra: Vec<Option<spectrum::Spectrum>> = all.iter().map(|(_, h)| spectrum::spectrum(h)).collect();
+    let (mut dist, mut slope) = (Vec::new(), Vec::new());
+    for i in 0..all.len() {
+        let rest: Vec<(landforms::Landforms, f64)> = (0..all.len()).filter(|&j| j != i).map(|j| (forms[j], 1.0)).collect();
+        dist.push(forms[i].distance(&landforms::Landforms::mix(&rest)));
+        let others: Vec<(spectrum::Spectrum, f64)> =
+            (0..all.len()).filter(|&j| j != i).filter_map(|j| spectra[j].clone().map(|s| (s, 1.0))).collect();
+        if let (Some(own), Some(mix)) = (&spectra[i], spectrum::Spectrum::mix(&others)) {
+            slope.push(own.slope() - mix.slope());
+        }
+    }
+    let spread = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        format!("{:.3} / {:.3} / {:.3}", v[0], v[v.len() / 2], v[v.len() - 1])
+    };
+    println!("real DEMs, each against the other {} (min / median / max):", all.len() - 1);
+    println!("  landform distance        {}", spread(&mut dist));
+    println!("  spectral slope difference {}", spread(&mut slope));
+    let _ = std::fs::remove_dir_all(&dir);
+}
