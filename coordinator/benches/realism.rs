@@ -8,16 +8,21 @@
 //! Sketches (512 x 512): curves (sinusoidal ridges 3 px, valleys 9 px), junctions
 //! (a Y of ridges, a T of valleys), parallel ridges 18 px apart (2 px), strokes
 //! touching the border (15 px), thin 1-px strokes, and a dense mix. Libraries: the
-//! even-numbered DEMs, the odd-numbered ones, and a small one of four.
+//! even-numbered DEMs, the odd-numbered ones, and a small one of four. Beside each
+//! seam score, `(real)` is what real terrain scores when cut where the job cut: the
+//! median over the shared DEMs of a crop's seam score under the job's placement map.
 //!
-//! `cargo bench -p ridgeline --bench realism` (RIDGELINE_BENCH_SEED, default 0).
+//! `cargo bench -p ridgeline --bench realism` (RIDGELINE_BENCH_SEED, default 0;
+//! RIDGELINE_BENCH_KEEP=DIR keeps each terrain's 1:1 hillshade there, to look at, with
+//! its heights (`.f32`, little-endian rows) and placement of every cell (`.prov.u32`)).
 
 mod common;
 
 use common::shared_data;
 use ridgeline::evaluation::{self, landforms, spectrum, Evaluation, Inputs};
 use ridgeline::pipeline::{run_job, SynthConfig};
-use ridgeline_terrain::grid::Grid;
+use ridgeline::quality::seam_score;
+use ridgeline_terrain::grid::{Grid, Heightfield};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -136,16 +141,33 @@ fn library(dems: &Path, dir: &Path, keep: impl Fn(usize) -> bool) -> PathBuf {
     dir.to_path_buf()
 }
 
-fn row(name: &str, e: &Evaluation, seconds: f64) {
+/// The yardstick for the seam score: the median over the real DEMs of a crop's seam
+/// score under this job's placement map (a real terrain cut where the job cut).
+fn real_seam_score(dems: &[(String, Heightfield)], provenance: &[u32]) -> f64 {
+    let mut scores: Vec<f64> = dems
+        .iter()
+        .filter(|(_, h)| h.width >= SIDE && h.height >= SIDE)
+        .map(|(_, h)| {
+            let (x0, y0) = ((h.width - SIDE) / 2, (h.height - SIDE) / 2);
+            let crop = Grid::from_vec(SIDE, SIDE, (0..SIDE * SIDE).map(|i| h.get(x0 + i % SIDE, y0 + i / SIDE)).collect());
+            seam_score(&crop, provenance).mean_ratio
+        })
+        .collect();
+    scores.sort_by(f64::total_cmp);
+    scores[scores.len() / 2]
+}
+
+fn row(name: &str, e: &Evaluation, real_seam: f64, seconds: f64) {
     let o = |v: Option<f64>| v.map(|v| format!("{v:>6.2}")).unwrap_or_else(|| format!("{:>6}", "-"));
     println!(
-        "{name:<22} {} {} {:>6.3} {} {} {} {:>6.3} {:>6.1}",
+        "{name:<22} {} {} {:>6.3} {} {} {} {:>6.2} {:>6.3} {:>6.1}",
         o(e.ridge_adherence),
         o(e.valley_adherence),
         e.landform_distance,
         o(e.spectral_slope_difference),
         o(e.roughness_ratio),
         o(e.seams.map(|s| s.mean_ratio)),
+        real_seam,
         e.repetition.unwrap_or(0.0),
         seconds
     );
@@ -165,9 +187,10 @@ fn main() {
     let cache = dir.join("cache");
     println!("ridgeline realism benchmark: 6 drawn sketches x held-out libraries, seed {seed}");
     println!(
-        "{:<22} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6}",
-        "sketch / library", "ridge", "valley", "landf", "slope", "rough", "seam", "repet", "s"
+        "{:<22} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6}",
+        "sketch / library", "ridge", "valley", "landf", "slope", "rough", "seam", "(real)", "repet", "s"
     );
+    let all = evaluation::load_sources(&dems, Some(90.0), None).expect("dems");
     for (k, (name, sk)) in sketches().into_iter().enumerate() {
         let (lname, lib) = &libs[k % libs.len()];
         let path = dir.join(format!("{name}.png"));
@@ -187,10 +210,19 @@ fn main() {
             sources: &sources,
             provenance: Some(&prov),
         });
-        row(&format!("{name} / {lname}"), &e, seconds);
+        row(&format!("{name} / {lname}"), &e, real_seam_score(&all, &prov.cells), seconds);
+        if let Some(keep) = std::env::var_os("RIDGELINE_BENCH_KEEP") {
+            let keep = PathBuf::from(keep);
+            std::fs::create_dir_all(&keep).expect("keep dir");
+            let shade = ridgeline_terrain::io::hillshade(out.terrain(), cell.unwrap_or(90.0));
+            shade.save(keep.join(format!("{name}-{lname}.png"))).expect("hillshade");
+            let raw: Vec<u8> = out.terrain().data.iter().flat_map(|v| v.to_le_bytes()).collect();
+            std::fs::write(keep.join(format!("{name}-{lname}.f32")), raw).expect("terrain");
+            let cells: Vec<u8> = prov.cells.iter().flat_map(|v| v.to_le_bytes()).collect();
+            std::fs::write(keep.join(format!("{name}-{lname}.prov.u32")), cells).expect("provenance");
+        }
     }
     // the yardstick: each shared DEM against the others (equal weights)
-    let all = evaluation::load_sources(&dems, Some(90.0), None).expect("dems");
     let forms: Vec<landforms::Landforms> =
         all.iter().map(|(_, h)| landforms::Landforms::of(&landforms::classify(h, 90.0))).collect();
     let spectra: Vec<Option<spectrum::Spectrum>> = all.iter().map(|(_, h)| spectrum::spectrum(h)).collect();

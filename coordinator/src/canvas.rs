@@ -110,6 +110,9 @@ pub struct Canvas {
     context: Vec<u32>,
     /// Placement ids by bucket of `patch x patch` cells of their centre.
     index: HashMap<(u32, u32), Vec<u32>>,
+    /// For a sub-canvas: which cells a merge wrote (new cells, and old cells the
+    /// merge relaxed next to its seam); empty for the whole output.
+    changed: Vec<bool>,
 }
 
 impl Canvas {
@@ -125,6 +128,7 @@ impl Canvas {
             full: (width, height),
             context: Vec::new(),
             index: HashMap::new(),
+            changed: Vec::new(),
         }
     }
 
@@ -214,6 +218,19 @@ impl Canvas {
         }
         self.heights.set(lx, ly, v);
         self.provenance.set(lx, ly, pid);
+        if let Some(c) = self.changed.get_mut(ly * self.heights.width + lx) {
+            *c = true;
+        }
+    }
+
+    /// Moves an already filled cell to a new height, keeping its provenance (the
+    /// merge's relaxed band, `merge.rs`).
+    pub(crate) fn adjust_cell(&mut self, lx: usize, ly: usize, v: f32) {
+        debug_assert!(!self.heights.get(lx, ly).is_nan());
+        self.heights.set(lx, ly, v);
+        if let Some(c) = self.changed.get_mut(ly * self.heights.width + lx) {
+            *c = true;
+        }
     }
 
     /// Copies the global rectangle `r` out as a sub-canvas, with the placements its
@@ -271,6 +288,7 @@ impl Canvas {
             full: self.full,
             context: Vec::new(),
             index: HashMap::new(),
+            changed: vec![false; w * h],
         };
         for &g in &ids {
             sub.record(self.placements[g as usize].clone());
@@ -285,7 +303,8 @@ impl Canvas {
     }
 
     /// Writes back what a sub-canvas placed: its new placements (appended in their
-    /// order) and every cell they changed. Returns the number of cells that were
+    /// order) and every cell its merges changed (with its new provenance, or its old
+    /// one where a merge only relaxed it). Returns the number of cells that were
     /// empty before.
     pub fn commit(&mut self, sub: &Canvas) -> usize {
         debug_assert!(self.context.is_empty(), "commit into the whole output");
@@ -301,10 +320,12 @@ impl Canvas {
         let (sx, sy) = sub.origin;
         for j in 0..sub.heights.height {
             for i in 0..sub.heights.width {
-                let id = sub.provenance.get(i, j);
-                if id != u32::MAX && id as usize >= n_ctx {
-                    self.write_cell(sx + i, sy + j, sub.heights.get(i, j), first_new + (id - n_ctx as u32));
+                if !sub.changed[j * sub.heights.width + i] {
+                    continue;
                 }
+                let id = sub.provenance.get(i, j);
+                let global = if id as usize >= n_ctx { first_new + (id - n_ctx as u32) } else { sub.context[id as usize] };
+                self.write_cell(sx + i, sy + j, sub.heights.get(i, j), global);
             }
         }
         before - self.empty
@@ -330,6 +351,39 @@ mod tests {
                 .filter(|&i| near_centre(16, (c.placements[i as usize].cx, c.placements[i as usize].cy), (x, y)))
                 .collect();
             assert_eq!(c.placements_near(x, y), brute);
+        }
+    }
+
+    /// Old terrain at 0 above a six-row hole and at 300 m below it, filled by a flat
+    /// patch: the merge also relaxes the old cells within the band next to the new
+    /// part, so the 300 m are spread over the hole and both bands, not the hole alone;
+    /// moved old cells keep their provenance and nothing outside the window moves.
+    #[test]
+    fn a_merge_spreads_a_level_difference_over_the_relaxed_band() {
+        let p = 32;
+        let mut c = Canvas::new(96, 96, p);
+        let (above, below) = (c.record(pl(10, 10, 0)), c.record(pl(10, 80, 1)));
+        for y in 0..96 {
+            for x in 0..96 {
+                if (45..51).contains(&y) && (36..60).contains(&x) {
+                    continue;
+                }
+                let (v, id) = if y < 48 { (0.0, above) } else { (300.0, below) };
+                c.write_cell(x, y, v, id);
+            }
+        }
+        c.place(48, 48, &vec![0.0; p * p], 0.0, pl(48, 48, 2));
+        assert_eq!(c.empty, 0);
+        let steepest = (30..66).map(|y| (c.height_at(48, y + 1) - c.height_at(48, y)).abs()).fold(0.0, f32::max);
+        // the hole alone (7 steps) would need 43 m a step
+        assert!(steepest < 300.0 / 11.0, "steepest step {steepest}");
+        let moved: Vec<usize> = (32..64)
+            .filter(|&y| c.provenance.get(48, y) != 2 && c.height_at(48, y) != if y < 48 { 0.0 } else { 300.0 })
+            .collect();
+        assert!(!moved.is_empty(), "old cells next to the new part moved");
+        assert!(moved.iter().all(|&y| c.provenance.get(48, y) == if y < 48 { above } else { below }));
+        for y in (0..32).chain(65..96) {
+            assert_eq!(c.height_at(48, y), if y < 48 { 0.0 } else { 300.0 }, "row {y} is outside the window");
         }
     }
 

@@ -475,10 +475,11 @@ fn synthesize_in(
     );
     report.stage("hole_filling", t);
     let d = p as f32 / 4.0;
+    let bounds = [&sk.ridges, &sk.valleys];
     report.ridge_adherence =
-        crate::quality::adherence(&canvas.heights, &sk.ridges, ridgeline_terrain::FeatureKind::Ridge, d, 4, 8);
+        crate::quality::adherence(&canvas.heights, &sk.ridges, ridgeline_terrain::FeatureKind::Ridge, d, 4, 8, &bounds);
     report.valley_adherence =
-        crate::quality::adherence(&canvas.heights, &sk.valleys, ridgeline_terrain::FeatureKind::Valley, d, 4, 8);
+        crate::quality::adherence(&canvas.heights, &sk.valleys, ridgeline_terrain::FeatureKind::Valley, d, 4, 8, &bounds);
     report.seams = crate::quality::seam_score(&canvas.heights, &canvas.provenance.data);
 
     for pl in &canvas.placements {

@@ -25,8 +25,20 @@ impl Adherence {
 /// Samples every `stride`-th cell of the centre lines (not within `margin` of the
 /// border) and checks the cross profile at distance `dist`: for a ridge the centre
 /// must be higher than both sides, for a valley lower. The direction of the line at
-/// a cell is the principal axis of the line cells within 4 cells of it.
-pub fn adherence(h: &Heightfield, g: &FeatureGraph, kind: FeatureKind, dist: f32, stride: usize, margin: usize) -> Adherence {
+/// a cell is the principal axis of the line cells within 4 cells of it. Where another
+/// sketched line (any of `bounds`) crosses the profile closer than `dist`, that side
+/// is sampled halfway to it: between two ridges drawn 18 cells apart the question is
+/// whether there is a dip between them, not whether a ridge is higher than its
+/// neighbour ridge.
+pub fn adherence(
+    h: &Heightfield,
+    g: &FeatureGraph,
+    kind: FeatureKind,
+    dist: f32,
+    stride: usize,
+    margin: usize,
+    bounds: &[&FeatureGraph],
+) -> Adherence {
     let mut a = Adherence::default();
     let pix: Vec<u32> = g.pixels().collect();
     let (w, hh) = (g.width, g.height);
@@ -52,9 +64,30 @@ pub fn adherence(h: &Heightfield, g: &FeatureGraph, kind: FeatureKind, dist: f32
         }
         let theta = 0.5 * (2.0 * sxy).atan2(sxx - syy);
         let (nx, ny) = (-theta.sin(), theta.cos());
+        let reach = |sign: f32| {
+            let mut r = 4.0f32;
+            while r < dist {
+                let (px, py) = ((x as f32 + sign * nx * r).round() as i64, (y as f32 + sign * ny * r).round() as i64);
+                let hit = (py - 1..=py + 1).any(|yy| {
+                    (px - 1..=px + 1).any(|xx| {
+                        xx >= 0
+                            && yy >= 0
+                            && (xx as usize) < w
+                            && (yy as usize) < hh
+                            && bounds.iter().any(|b| b.contains((yy as usize * w + xx as usize) as u32))
+                    })
+                });
+                if hit {
+                    return ((r - 1.0) / 2.0).max(2.0);
+                }
+                r += 1.0;
+            }
+            dist
+        };
+        let (d1, d2) = (reach(1.0), reach(-1.0));
         let c = h.sample_bilinear(x as f32, y as f32);
-        let s1 = h.sample_bilinear(x as f32 + nx * dist, y as f32 + ny * dist);
-        let s2 = h.sample_bilinear(x as f32 - nx * dist, y as f32 - ny * dist);
+        let s1 = h.sample_bilinear(x as f32 + nx * d1, y as f32 + ny * d1);
+        let s2 = h.sample_bilinear(x as f32 - nx * d2, y as f32 - ny * d2);
         a.sampled += 1;
         let ok = match kind {
             FeatureKind::Ridge => c > s1 && c > s2,

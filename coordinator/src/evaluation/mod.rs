@@ -2,7 +2,9 @@
 //! (`ridgeline evaluate`, and the `evaluation` of `synth --report`):
 //! - sketch adherence: at sampled centre-line points of the sketch's ridges (valleys),
 //!   the share whose cross profile at half-width patch/2 has the centre above (below)
-//!   both sides (`quality::adherence`);
+//!   both sides (`quality::adherence`; a side that meets another sketched line
+//!   sooner is sampled halfway to it, so close parallel strokes are judged by the
+//!   dip or rise between them);
 //! - landforms: the geomorphon histogram of the terrain and its total-variation
 //!   distance to the sources' histograms, weighted by each source's share of the
 //!   output ([`landforms`]);
@@ -92,7 +94,7 @@ pub fn evaluate(i: &Inputs) -> Evaluation {
     let mut e = Evaluation { profile_half_width_cells: half, ..Default::default() };
     if let Some(sk) = i.sketch {
         let a = |g, kind| {
-            let a = adherence(i.terrain, g, kind, half, 4, i.patch / 2);
+            let a = adherence(i.terrain, g, kind, half, 4, i.patch / 2, &[&sk.ridges, &sk.valleys]);
             (a.sampled > 0).then(|| a.fraction())
         };
         e.ridge_adherence = a(&sk.ridges, FeatureKind::Ridge);
@@ -263,8 +265,16 @@ impl Evaluation {
         let mut t = String::new();
         let mut row = |k: &str, v: String, note: &str| t.push_str(&format!("{k:<28} {v:>10}  {note}\n"));
         let hw = self.profile_half_width_cells;
-        row("ridge adherence", opt(self.ridge_adherence, 3), &format!("cross profile at ±{hw} cells"));
-        row("valley adherence", opt(self.valley_adherence, 3), &format!("cross profile at ±{hw} cells"));
+        row(
+            "ridge adherence",
+            opt(self.ridge_adherence, 3),
+            &format!("cross profile at ±{hw} cells or halfway to a closer line"),
+        );
+        row(
+            "valley adherence",
+            opt(self.valley_adherence, 3),
+            &format!("cross profile at ±{hw} cells or halfway to a closer line"),
+        );
         row("landform distance", format!("{:.3}", self.landform_distance), "total variation vs the sources (0 = same)");
         row("spectral slope", opt(self.spectral_slope, 2), &format!("sources {}", opt(self.source_spectral_slope, 2)));
         row("spectral slope difference", opt(self.spectral_slope_difference, 2), "negative: smoother than the sources");
