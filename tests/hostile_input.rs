@@ -76,6 +76,14 @@ fn a_ridge_with_no_ridge_in_the_library_falls_back_to_inverted_valleys() {
     assert!(!out.report.fallbacks.is_empty(), "the fallback is reported");
     assert!(out.report.fallbacks[0].contains("ridge"), "{:?}", out.report.fallbacks);
     assert!(out.terrain().data.iter().all(|v| v.is_finite()));
-    let a = adherence(out.terrain(), out.sketch.graph(FeatureKind::Ridge), FeatureKind::Ridge, 8.0, 4, 8);
+    let a = adherence(
+        out.terrain(),
+        out.sketch.graph(FeatureKind::Ridge),
+        FeatureKind::Ridge,
+        8.0,
+        4,
+        8,
+        &[out.sketch.graph(FeatureKind::Ridge), out.sketch.graph(FeatureKind::Valley)],
+    );
     assert!(a.fraction() >= 0.8, "inverted valleys make a ridge: {} of {}", a.matching, a.sampled);
 }

@@ -38,7 +38,15 @@ fn full_run_fills_every_pixel_and_follows_the_sketch() {
     assert_eq!(out.report.exemplars.len(), 16, "all 16 DEMs used");
     assert!(out.report.ridge_patches > 0 && out.report.valley_patches > 0);
     for kind in FeatureKind::BOTH {
-        let a = adherence(out.terrain(), out.sketch.graph(kind), kind, 16.0, 4, 8);
+        let a = adherence(
+            out.terrain(),
+            out.sketch.graph(kind),
+            kind,
+            16.0,
+            4,
+            8,
+            &[out.sketch.graph(FeatureKind::Ridge), out.sketch.graph(FeatureKind::Valley)],
+        );
         assert!(a.sampled >= 50, "{kind:?}: only {} samples", a.sampled);
         assert!(
             a.fraction() >= 0.9,
