@@ -143,18 +143,21 @@ fn library(dems: &Path, dir: &Path, keep: impl Fn(usize) -> bool) -> PathBuf {
 
 /// The yardstick for the seam score: the median over the real DEMs of a crop's seam
 /// score under this job's placement map (a real terrain cut where the job cut).
-fn real_seam_score(dems: &[(String, Heightfield)], provenance: &[u32]) -> f64 {
-    let mut scores: Vec<f64> = dems
-        .iter()
+fn real_seam_score(crops: &[Heightfield], provenance: &[u32]) -> f64 {
+    let mut scores: Vec<f64> = crops.iter().map(|crop| seam_score(crop, provenance).mean_ratio).collect();
+    scores.sort_by(f64::total_cmp);
+    scores[scores.len() / 2]
+}
+
+/// The centre `SIDE x SIDE` crop of every real DEM that large.
+fn centre_crops(dems: &[(String, Heightfield)]) -> Vec<Heightfield> {
+    dems.iter()
         .filter(|(_, h)| h.width >= SIDE && h.height >= SIDE)
         .map(|(_, h)| {
             let (x0, y0) = ((h.width - SIDE) / 2, (h.height - SIDE) / 2);
-            let crop = Grid::from_vec(SIDE, SIDE, (0..SIDE * SIDE).map(|i| h.get(x0 + i % SIDE, y0 + i / SIDE)).collect());
-            seam_score(&crop, provenance).mean_ratio
+            Grid::from_vec(SIDE, SIDE, (0..SIDE * SIDE).map(|i| h.get(x0 + i % SIDE, y0 + i / SIDE)).collect())
         })
-        .collect();
-    scores.sort_by(f64::total_cmp);
-    scores[scores.len() / 2]
+        .collect()
 }
 
 fn row(name: &str, e: &Evaluation, real_seam: f64, seconds: f64) {
@@ -191,6 +194,7 @@ fn main() {
         "sketch / library", "ridge", "valley", "landf", "slope", "rough", "seam", "(real)", "repet", "s"
     );
     let all = evaluation::load_sources(&dems, Some(90.0), None).expect("dems");
+    let crops = centre_crops(&all);
     for (k, (name, sk)) in sketches().into_iter().enumerate() {
         let (lname, lib) = &libs[k % libs.len()];
         let path = dir.join(format!("{name}.png"));
@@ -210,7 +214,7 @@ fn main() {
             sources: &sources,
             provenance: Some(&prov),
         });
-        row(&format!("{name} / {lname}"), &e, real_seam_score(&all, &prov.cells), seconds);
+        row(&format!("{name} / {lname}"), &e, real_seam_score(&crops, &prov.cells), seconds);
         if let Some(keep) = std::env::var_os("RIDGELINE_BENCH_KEEP") {
             let keep = PathBuf::from(keep);
             std::fs::create_dir_all(&keep).expect("keep dir");

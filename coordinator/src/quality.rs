@@ -64,25 +64,19 @@ pub fn adherence(
         }
         let theta = 0.5 * (2.0 * sxy).atan2(sxx - syy);
         let (nx, ny) = (-theta.sin(), theta.cos());
+        // a sketched line within one cell of (px, py)
+        let near_line = |px: i64, py: i64| {
+            let (x0, y0) = (px.max(1) as usize - 1, py.max(1) as usize - 1);
+            (y0..(py + 2).clamp(0, hh as i64) as usize)
+                .flat_map(|yy| (x0..(px + 2).clamp(0, w as i64) as usize).map(move |xx| (yy * w + xx) as u32))
+                .any(|i| bounds.iter().any(|b| b.contains(i)))
+        };
+        // how far out to sample on one side: `dist`, or halfway to a closer line
         let reach = |sign: f32| {
-            let mut r = 4.0f32;
-            while r < dist {
-                let (px, py) = ((x as f32 + sign * nx * r).round() as i64, (y as f32 + sign * ny * r).round() as i64);
-                let hit = (py - 1..=py + 1).any(|yy| {
-                    (px - 1..=px + 1).any(|xx| {
-                        xx >= 0
-                            && yy >= 0
-                            && (xx as usize) < w
-                            && (yy as usize) < hh
-                            && bounds.iter().any(|b| b.contains((yy as usize * w + xx as usize) as u32))
-                    })
-                });
-                if hit {
-                    return ((r - 1.0) / 2.0).max(2.0);
-                }
-                r += 1.0;
-            }
-            dist
+            (4..dist.ceil() as usize)
+                .map(|r| r as f32)
+                .find(|r| near_line((x as f32 + sign * nx * r).round() as i64, (y as f32 + sign * ny * r).round() as i64))
+                .map_or(dist, |r| ((r - 1.0) / 2.0).max(2.0))
         };
         let (d1, d2) = (reach(1.0), reach(-1.0));
         let c = h.sample_bilinear(x as f32, y as f32);
