@@ -1,8 +1,8 @@
 //! Synthesis on libraries built to be awkward: exemplars with voids, and a library
 //! that offers no ridges at all for a sketch that asks for one.
 
+use ridgeline::evaluation::quality::adherence;
 use ridgeline::pipeline::{run_job, SynthConfig};
-use ridgeline::quality::adherence;
 use ridgeline_terrain::grid::Grid;
 use ridgeline_terrain::outputs::write_heightfield_with_cell;
 use ridgeline_terrain::FeatureKind;

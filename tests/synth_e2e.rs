@@ -2,8 +2,8 @@
 //! ../shared/data is absent).
 
 use ridgeline::canvas::{Canvas, Placement};
+use ridgeline::evaluation::quality::{adherence, max_gradient_jump};
 use ridgeline::pipeline::{run_job, SynthConfig, SynthOutput};
-use ridgeline::quality::{adherence, max_gradient_jump};
 use ridgeline_terrain::io::encode_tiff_f32;
 use ridgeline_terrain::library::{load_exemplar, scan_library};
 use ridgeline_terrain::patch_geometry::{extract_patch, Variant};
@@ -218,7 +218,7 @@ fn no_straight_seam_where_hole_filling_tiles_meet() {
         let out = run_job(&sketch_path, &data.join("dems"), &cfg).expect("synthesis");
         let h = out.terrain();
         assert!(h.data.iter().all(|v| v.is_finite()));
-        let side = ridgeline::hole_filling::tile_side(h.width, h.height, patch);
+        let side = ridgeline::stages::hole_filling::tile_side(h.width, h.height, patch);
         let stretches = |c: usize, columns: bool| -> Vec<f64> {
             let len = if columns { h.height } else { h.width };
             (0..len / side).map(|s| curvature_across(h, c, columns, s * side, (s + 1) * side)).collect()

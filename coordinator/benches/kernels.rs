@@ -23,8 +23,8 @@
 mod common;
 
 use common::{median, runs, shared_data};
-use ridgeline::sketch::analyse;
-use ridgeline::user_patches::user_patches;
+use ridgeline::stages::sketch::analyse;
+use ridgeline::stages::user_patches::user_patches;
 use ridgeline_terrain::costs::noise_variances;
 use ridgeline_terrain::library::{common_cell_size, scan_library};
 use ridgeline_terrain::patch_geometry::{FEATURELESS_VARIANTS, FEATURE_VARIANTS};

@@ -19,9 +19,9 @@
 mod common;
 
 use common::shared_data;
+use ridgeline::evaluation::quality::seam_score;
 use ridgeline::evaluation::{self, landforms, spectrum, Evaluation, Inputs};
 use ridgeline::pipeline::{run_job, SynthConfig};
-use ridgeline::quality::seam_score;
 use ridgeline_terrain::grid::{Grid, Heightfield};
 use std::path::{Path, PathBuf};
 use std::time::Instant;

@@ -7,11 +7,10 @@ mod cli;
 
 use anyhow::{bail, Context, Result};
 use clap::Parser;
-use cli::args::{Cli, Cmd, EvaluateArgs, FetchArgs, LogFormat, SynthArgs, WorkerArgs};
-use cli::checks::{check_collisions, check_out, worker_urls};
+use cli::args::{Cli, Cmd, EvaluateArgs, FetchArgs, LogFormat, ServeArgs, SynthArgs, WorkerArgs};
+use cli::checks::{parse_worker_urls, worker_urls};
 use cli::telemetry::{job_id, progress_bars, JOB_ID};
 use ridgeline::fetch_dem::{fetch_area, write_exemplar, BBox, DirSource, HttpSource, TileSource};
-use ridgeline::pipeline::{run_job, Progress, SynthConfig};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
@@ -33,12 +32,14 @@ fn main() -> std::process::ExitCode {
             return std::process::ExitCode::FAILURE;
         }
     };
-    if !matches!(cli.cmd, Cmd::Worker(_)) {
+    if !matches!(cli.cmd, Cmd::Worker(_) | Cmd::Serve(_)) {
         cli::signals::on_signal_clean_up_and_exit();
     }
     let id = job_id();
     let _ = JOB_ID.set(id.clone());
-    let span = tracing::info_span!("job", job_id = %id);
+    // a service runs many jobs, each in a span of its own with its own id
+    let span =
+        if matches!(cli.cmd, Cmd::Serve(_)) { tracing::info_span!("service") } else { tracing::info_span!("job", job_id = %id) };
     let _g = span.enter();
     let human = cli.log_format == LogFormat::Text;
     match run(cli.cmd, interactive, human) {
@@ -59,7 +60,59 @@ fn run(cmd: Cmd, interactive: bool, human: bool) -> Result<()> {
         Cmd::FetchDem(a) => fetch(a),
         Cmd::Evaluate(a) => evaluate(a),
         Cmd::Worker(a) => worker(a),
+        Cmd::Serve(a) => serve(a),
     }
+}
+
+fn serve(a: ServeArgs) -> Result<()> {
+    use ridgeline::session::Backend;
+    if a.token.is_none() && !a.listen.ip().is_loopback() {
+        bail!("refusing to serve on {} without a token: pass --token or set RIDGELINE_TOKEN (only loopback addresses may run without one)", a.listen);
+    }
+    let urls = parse_worker_urls(&a.workers, a.workers_file.as_deref())?;
+    let backend = if urls.is_empty() {
+        Backend::InProcess { gpu: a.gpu, shards: 1 }
+    } else {
+        Backend::Fleet(ridgeline::cluster::ClusterConfig {
+            workers: urls,
+            token: a.token.clone(),
+            tls_ca: a.tls_ca.clone(),
+            call_timeout: std::time::Duration::from_secs(a.call_timeout_s.max(1)),
+            ..Default::default()
+        })
+    };
+    let cfg = ridgeline::service::ServiceConfig {
+        library: a.exemplars.clone(),
+        jobs_dir: a
+            .jobs_dir
+            .clone()
+            .unwrap_or_else(|| std::env::temp_dir().join(format!("ridgeline-jobs-{}", std::process::id()))),
+        backend,
+        token: a.token.clone(),
+        max_queue: a.max_queue.max(1),
+        keep_jobs: a.keep_jobs.max(1),
+        max_body: a.max_body_mb.max(1) << 20,
+        max_side: a.max_side,
+        threads: a.threads,
+        cache_dir: Some(a.cache_dir.clone().unwrap_or_else(ridgeline_worker::FeatureCache::default_dir)),
+    };
+    let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
+    rt.block_on(async move {
+        let listener = tokio::net::TcpListener::bind(a.listen).await.with_context(|| format!("cannot listen on {}", a.listen))?;
+        let addr = listener.local_addr()?;
+        println!("ridgeline is serving on http://{addr}/");
+        use std::io::Write;
+        std::io::stdout().flush()?;
+        let shutdown = async {
+            let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()).ok();
+            tokio::select! {
+                _ = tokio::signal::ctrl_c() => {}
+                _ = async { match term.as_mut() { Some(t) => { t.recv().await; } None => std::future::pending::<()>().await } } => {}
+            }
+            tracing::info!("shutting down: cancelling the running job");
+        };
+        ridgeline::service::serve(listener, cfg, shutdown).await.map_err(|e| anyhow::anyhow!("{e}"))
+    })
 }
 
 fn worker(a: WorkerArgs) -> Result<()> {
@@ -117,98 +170,61 @@ fn serve_metrics(addr: Option<std::net::SocketAddr>) -> Result<()> {
 }
 
 fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
-    // validate every output path before the (long) job starts
-    check_out(&a.out, &ridgeline_terrain::outputs::OUTPUT_EXTENSIONS)?;
-    if let Some(p) = &a.preview {
-        check_out(p, &["png"])?;
-    }
-    if let Some(p) = &a.report {
-        check_out(p, &["json"])?;
-    }
-    if let Some(d) = &a.debug_dir {
-        if d.exists() && !d.is_dir() {
-            bail!("--debug-dir {}: exists and is not a folder", d.display());
-        }
-    }
-    check_collisions(&a)?;
-    serve_metrics(a.metrics_listen)?;
+    use ridgeline::session::{Backend, ExemplarSource, Session, SketchSource};
     let urls = worker_urls(&a)?;
-    let cluster = if urls.is_empty() {
-        None
+    let backend = if urls.is_empty() {
+        Backend::InProcess { gpu: a.gpu, shards: 1 }
     } else {
-        let ccfg = ridgeline::cluster::ClusterConfig {
+        Backend::Fleet(ridgeline::cluster::ClusterConfig {
             workers: urls,
             token: a.token.clone(),
             tls_ca: a.tls_ca.clone(),
             call_timeout: std::time::Duration::from_secs(a.call_timeout_s.max(1)),
             job_id: JOB_ID.get().cloned(),
             ..Default::default()
-        };
-        Some(ridgeline::cluster::Cluster::connect(ccfg)?)
+        })
     };
-    let cfg = SynthConfig {
-        cluster,
-        block: a.block_size.max(1),
-        patch: a.patch_size,
-        seed: a.seed,
-        threads: a.threads,
-        cell_size: a.cell_size,
-        cache_dir: if a.no_cache { None } else { Some(a.cache_dir.unwrap_or_else(ridgeline_worker::FeatureCache::default_dir)) },
-        max_side: a.max_side,
-        progress: if interactive { progress_bars() } else { Progress::default() },
-        keep_features_only: a.debug_dir.is_some(),
-        gpu: a.gpu,
-        max_memory: a.max_memory,
-        ..SynthConfig::default()
-    };
-    let out = run_job(&a.sketch, &a.exemplars, &cfg);
+    let mut builder = Session::builder()
+        .sketch(SketchSource::File(a.sketch.clone()))
+        .exemplars(ExemplarSource::library(&a.exemplars))
+        .backend(backend)
+        .patch_size(a.patch_size)
+        .seed(a.seed)
+        .threads(a.threads)
+        .block_size(a.block_size.max(1))
+        .cache_dir(if a.no_cache {
+            None
+        } else {
+            Some(a.cache_dir.clone().unwrap_or_else(ridgeline_worker::FeatureCache::default_dir))
+        })
+        .max_side(a.max_side)
+        .max_memory(a.max_memory)
+        .keep_features_only(a.debug_dir.is_some())
+        .outputs(ridgeline::outputs::OutputFiles {
+            terrain: a.out.clone(),
+            also: Vec::new(),
+            tiles: a.tiles,
+            preview: a.preview.clone(),
+            report: a.report.clone(),
+            debug_dir: a.debug_dir.clone(),
+        });
+    for (name, p) in a.workers_file.iter().map(|p| ("the workers file", p)).chain(a.tls_ca.iter().map(|p| ("the TLS CA", p))) {
+        builder = builder.input_file(name, p);
+    }
+    if let Some(c) = a.cell_size {
+        builder = builder.cell_size(c);
+    }
+    if interactive {
+        builder = builder.progress(progress_bars());
+    }
+    // every setting and output path is checked here, before the (long) job starts
+    let session = builder.build()?;
+    serve_metrics(a.metrics_listen)?;
+    let out = session.run();
     let jobs = &ridgeline_worker::metrics::metrics().coordinator_jobs;
     jobs.get_or_create(&vec![("outcome", if out.is_ok() { "ok" } else { "error" }.to_string())]).inc();
-    let out = out.context("synthesis failed")?;
-    let t = std::time::Instant::now();
-    let cell = out.report.cell_size_m;
-    // every output is staged and they appear together at the commit below; an error on
-    // the way (or a signal) leaves every existing file as it was
-    let outputs = ridgeline_terrain::staging::Transaction::begin();
-    ridgeline_terrain::outputs::write_heightfield_with_cell(&a.out, out.terrain(), cell)?;
-    if let Some(n) = a.tiles {
-        let idx = ridgeline_terrain::outputs::write_tiles(&a.out, out.terrain(), n, cell)?;
-        tracing::info!(index = %idx.display(), "tiles written");
-    }
-    if let Some(p) = &a.preview {
-        ridgeline_terrain::io::write_rgb_png(p, &ridgeline_terrain::io::hillshade(out.terrain(), cell.unwrap_or(1.0)))?;
-    }
-    if let Some(d) = &a.debug_dir {
-        ridgeline::debug_outputs::write_debug_outputs(d, &out, &out.sketch_image, cell.unwrap_or(1.0), Some(&a.exemplars))?;
-    }
-    let write_s = t.elapsed().as_secs_f64();
-    let mut report = out.report.clone();
-    if a.report.is_some() {
-        // the realism figures against the sources this terrain was made from
-        let te = std::time::Instant::now();
-        let provenance = ridgeline::evaluation::provenance_of(&out);
-        let sources = ridgeline::evaluation::load_sources(&a.exemplars, cell, Some(&provenance))?;
-        report.evaluation = Some(ridgeline::evaluation::evaluate(&ridgeline::evaluation::Inputs {
-            terrain: out.terrain(),
-            cell_m: cell.unwrap_or(90.0),
-            sketch: Some(&out.sketch),
-            patch: a.patch_size,
-            sources: &sources,
-            provenance: Some(&provenance),
-        }));
-        report.stages.push(ridgeline::pipeline::StageTiming { stage: "evaluation", seconds: te.elapsed().as_secs_f64() });
-    }
-    report.stages.push(ridgeline::pipeline::StageTiming { stage: "write", seconds: write_s });
-    if let Some(p) = &a.report {
-        ridgeline_terrain::io::write_atomic(p, &serde_json::to_vec_pretty(&report)?)?;
-    }
-    let files = outputs.files().len();
-    if let Some(ms) = std::env::var("RIDGELINE_PAUSE_BEFORE_COMMIT_MS").ok().and_then(|v| v.parse().ok()) {
-        // for tests of the commit: holds the staged outputs so a signal can be sent
-        std::thread::sleep(std::time::Duration::from_millis(ms));
-    }
-    outputs.commit().context("committing the outputs")?;
-    tracing::debug!(files, "outputs committed");
+    let finished = out.context("synthesis failed")?;
+    let report = finished.report;
     let total: f64 = report.stages.iter().filter(|s| s.stage != "round1_scoring").map(|s| s.seconds).sum();
     tracing::info!(out = %a.out.display(), seconds = total, "terrain written");
     for f in &report.fallbacks {
@@ -293,7 +309,7 @@ fn evaluate(a: EvaluateArgs) -> Result<()> {
             if (s.width, s.height) != (terrain.width, terrain.height) {
                 bail!("{}: {} x {} but the terrain is {} x {}", p.display(), s.width, s.height, terrain.width, terrain.height);
             }
-            Some(ridgeline::sketch::analyse(&s, a.patch_size))
+            Some(ridgeline::stages::sketch::analyse(&s, a.patch_size))
         }
         None => None,
     };

@@ -1,14 +1,14 @@
 //! The job, stage by stage (design.md, Pipeline). Follow a run from here:
 //!
-//! 1. [`crate::sketch::analyse`] — sketch strokes → centre lines → guide field;
+//! 1. [`crate::stages::sketch::analyse`] — sketch strokes → centre lines → guide field;
 //! 2. exemplar shards are loaded (worker side: `ridgeline_worker::InProcessShard`,
 //!    feature extraction from the on-disk cache);
-//! 3. [`crate::user_patches::user_patches`] — user patches in BFS order with control points;
-//! 4. [`crate::feature_placement::place_features`] — round 1: every shard scores blocks
+//! 3. [`crate::stages::user_patches::user_patches`] — user patches in BFS order with control points;
+//! 4. [`crate::stages::feature_placement::place_features`] — round 1: every shard scores blocks
 //!    of user patches (`ShardScorer::score_block`) on a producer thread, while round 2
-//!    ([`crate::selection::select_and_merge`]) places block b in batches of
+//!    ([`crate::stages::selection::select_and_merge`]) places block b in batches of
 //!    non-interacting user patches (Crause 2015, figure 6.9);
-//! 5. [`crate::hole_filling::fill_holes`] — featureless patches, scored on the shards
+//! 5. [`crate::stages::hole_filling::fill_holes`] — featureless patches, scored on the shards
 //!    (`ShardScorer::score_fill`), tile by tile in colour phases, until no cell is empty.
 //!
 //! Determinism: round 1 results do not depend on the output, are gathered in (user
@@ -23,10 +23,11 @@
 //! view of the terrain before hole filling.
 
 use crate::canvas::Canvas;
-use crate::feature_placement::{place_features, PlacementSettings};
-use crate::hole_filling::{fill_holes, FillError};
-use crate::sketch::{analyse, SketchFeatures};
-use crate::user_patches::{user_patches, UserPatch};
+use crate::progress::{CancelToken, Progress, Stage};
+use crate::stages::feature_placement::{place_features, PlacementSettings};
+use crate::stages::hole_filling::{fill_holes, FillError};
+use crate::stages::sketch::{analyse, SketchFeatures};
+use crate::stages::user_patches::{user_patches, UserPatch};
 use ridgeline_terrain::grid::{Grid, Heightfield};
 use ridgeline_terrain::library::{common_cell_size, scan_library, ExemplarSpec};
 use ridgeline_terrain::shard::{ShardError, ShardScorer, ShardTimes, SourceInfo};
@@ -92,8 +93,10 @@ pub struct SynthConfig {
     pub threads: usize,
     /// Number of in-process shards the library is split into.
     pub shards: usize,
-    /// Called as work advances: (stage, done, total).
+    /// Told as work advances (stages, placed patches).
     pub progress: Progress,
+    /// Stops the job at its next check.
+    pub cancel: CancelToken,
     /// gRPC workers to score on; `None` = in-process shards.
     pub cluster: Option<Arc<crate::cluster::Cluster>>,
     /// Largest round-2 batch of non-interacting user patches (0 = no limit, 1 = one
@@ -109,27 +112,6 @@ pub struct SynthConfig {
     pub max_memory: Option<u64>,
 }
 
-/// A progress callback: `(stage, done, total)`.
-#[derive(Clone, Default)]
-pub struct Progress(pub Option<ProgressFn>);
-
-/// The callback behind [`Progress`].
-pub type ProgressFn = Arc<dyn Fn(&'static str, u64, u64) + Send + Sync>;
-
-impl Progress {
-    pub fn report(&self, stage: &'static str, done: u64, total: u64) {
-        if let Some(f) = &self.0 {
-            f(stage, done, total);
-        }
-    }
-}
-
-impl std::fmt::Debug for Progress {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(if self.0.is_some() { "Progress(callback)" } else { "Progress(none)" })
-    }
-}
-
 impl Default for SynthConfig {
     fn default() -> Self {
         SynthConfig {
@@ -143,6 +125,7 @@ impl Default for SynthConfig {
             threads: 0,
             shards: 1,
             progress: Progress::default(),
+            cancel: CancelToken::default(),
             cluster: None,
             keep_features_only: false,
             max_batch: 0,
@@ -160,9 +143,11 @@ pub enum SynthError {
     #[error("{0}: no usable exemplar (DEMs in PNG, TIFF, HGT or ASCII grid, larger than a patch in every orientation){1}")]
     NoExemplars(PathBuf, String),
     #[error("worker: {0}")]
-    Shard(#[from] ShardError),
+    Shard(ShardError),
     #[error(transparent)]
-    Fill(#[from] FillError),
+    Fill(FillError),
+    #[error("the job was cancelled")]
+    Cancelled,
     #[error("invalid settings: {0}")]
     Config(String),
     #[error("{0}")]
@@ -171,6 +156,24 @@ pub enum SynthError {
     Threads(String),
     #[error(transparent)]
     Gpu(#[from] ridgeline_worker::gpu::GpuError),
+}
+
+impl From<ShardError> for SynthError {
+    fn from(e: ShardError) -> Self {
+        match e {
+            ShardError::Cancelled => SynthError::Cancelled,
+            e => SynthError::Shard(e),
+        }
+    }
+}
+
+impl From<FillError> for SynthError {
+    fn from(e: FillError) -> Self {
+        match e {
+            FillError::Shard(e) => e.into(),
+            e => SynthError::Fill(e),
+        }
+    }
 }
 
 /// Wall time of one stage.
@@ -215,10 +218,10 @@ pub struct SynthReport {
     pub fill_coordinator_core_s: f64,
     /// Sketch adherence of the result: sampled ridge centre-line points with a
     /// ridge-shaped cross profile at patch/4, and the same for valleys.
-    pub ridge_adherence: crate::quality::Adherence,
-    pub valley_adherence: crate::quality::Adherence,
+    pub ridge_adherence: crate::evaluation::quality::Adherence,
+    pub valley_adherence: crate::evaluation::quality::Adherence,
     /// Gradient jumps across merge seams against those inside patches.
-    pub seams: crate::quality::SeamScore,
+    pub seams: crate::evaluation::quality::SeamScore,
     /// Each shard: what it scored on and how long its calls took (round-1 blocks and
     /// fill-scoring calls, wall seconds as the coordinator waited for them).
     pub shards: Vec<ShardReport>,
@@ -250,8 +253,9 @@ pub fn peak_rss_bytes() -> Option<u64> {
 }
 
 impl SynthReport {
-    fn stage(&mut self, stage: &'static str, t: Instant) {
+    fn stage(&mut self, stage: Stage, t: Instant) {
         let seconds = t.elapsed().as_secs_f64();
+        let stage = stage.name();
         tracing::info!(stage, seconds, "stage done");
         ridgeline_worker::metrics::metrics().stage(stage, seconds);
         self.stages.push(StageTiming { stage, seconds });
@@ -277,10 +281,14 @@ impl SynthOutput {
     }
 }
 
-/// Loads the exemplar library of `dir` into `cfg.shards` in-process shards,
-/// balanced by file count in name order.
-pub fn load_library(dir: &Path, cfg: &SynthConfig) -> Result<(Shards, Option<f32>), SynthError> {
-    let specs: Vec<ExemplarSpec> = scan_library(dir)?;
+/// Loads the exemplar library of `dir` (a folder or a manifest; only the file names
+/// in `only`, when given) into `cfg.shards` in-process shards, balanced by file count
+/// in name order, or onto the cluster's workers.
+pub fn load_library(dir: &Path, only: Option<&[String]>, cfg: &SynthConfig) -> Result<(Shards, Option<f32>), SynthError> {
+    let mut specs: Vec<ExemplarSpec> = scan_library(dir)?;
+    if let Some(only) = only {
+        specs.retain(|s| only.contains(&s.name()));
+    }
     if specs.is_empty() {
         return Err(SynthError::NoExemplars(dir.to_path_buf(), String::new()));
     }
@@ -312,7 +320,7 @@ pub fn load_library(dir: &Path, cfg: &SynthConfig) -> Result<(Shards, Option<f32
     Ok((shards, cell))
 }
 
-fn thread_pool(threads: usize) -> Result<rayon::ThreadPool, SynthError> {
+pub(crate) fn thread_pool(threads: usize) -> Result<rayon::ThreadPool, SynthError> {
     rayon::ThreadPoolBuilder::new().num_threads(threads).build().map_err(|e| SynthError::Threads(e.to_string()))
 }
 
@@ -323,16 +331,31 @@ pub fn run_job(sketch_path: &Path, exemplar_dir: &Path, cfg: &SynthConfig) -> Re
     let _job =
         tracing::info_span!("synth", sketch = %sketch_path.display(), exemplars = %exemplar_dir.display(), seed = cfg.seed)
             .entered();
-    check_memory(sketch_path, exemplar_dir, cfg)?;
+    let (w, h) = image::image_dimensions(sketch_path).unwrap_or((0, 0));
+    check_memory(sketch_path, w as usize, h as usize, exemplar_dir, cfg)?;
     let sketch = ridgeline_terrain::io::read_sketch(sketch_path, cfg.max_side)?;
+    run_on_library(sketch, exemplar_dir, None, cfg, &pool)
+}
+
+/// Loads the library of `exemplar_dir` (a folder or a manifest) and synthesises `sketch`.
+pub fn run_on_library(
+    sketch: Grid<u8>,
+    exemplar_dir: &Path,
+    only: Option<&[String]>,
+    cfg: &SynthConfig,
+    pool: &rayon::ThreadPool,
+) -> Result<SynthOutput, SynthError> {
+    cancelled(cfg)?;
+    cfg.progress.report(Stage::Exemplars, 0, 1);
     let t = Instant::now();
     let (shards, cell) = {
         let stage = tracing::info_span!("stage", name = "exemplars");
         // pool threads do not inherit the span: enter it there, so every event names the job
-        pool.install(|| stage.in_scope(|| load_library(exemplar_dir, cfg)))?
+        pool.install(|| stage.in_scope(|| load_library(exemplar_dir, only, cfg)))?
     };
     let load_s = t.elapsed().as_secs_f64();
-    let mut out = synthesize_in(sketch, &shards, cfg, &pool)?;
+    cfg.progress.report(Stage::Exemplars, 1, 1);
+    let mut out = synthesize_in(sketch, &shards, cfg, pool)?;
     if let (Some(cluster), Some(cache)) = (&cfg.cluster, &cfg.cache_dir) {
         // the next job's shards are sized by what this one measured
         if let Err(e) = cluster.rates.save(cache) {
@@ -345,9 +368,17 @@ pub fn run_job(sketch_path: &Path, exemplar_dir: &Path, cfg: &SynthConfig) -> Re
 }
 
 /// Refuses, before any work, a job whose estimated peak memory exceeds its budget.
-/// A sketch or library that cannot be read is left for the readers to report.
-fn check_memory(sketch_path: &Path, exemplar_dir: &Path, cfg: &SynthConfig) -> Result<(), SynthError> {
-    let Ok((w, h)) = image::image_dimensions(sketch_path) else { return Ok(()) };
+/// A library that cannot be read is left for the readers to report.
+pub(crate) fn check_memory(
+    sketch: &Path,
+    width: usize,
+    height: usize,
+    exemplar_dir: &Path,
+    cfg: &SynthConfig,
+) -> Result<(), SynthError> {
+    if width == 0 || height == 0 {
+        return Ok(());
+    }
     let library_cells: u64 = match (&cfg.cluster, scan_library(exemplar_dir)) {
         (None, Ok(specs)) => {
             let cell = cfg.cell_size.or_else(|| common_cell_size(&specs));
@@ -355,13 +386,66 @@ fn check_memory(sketch_path: &Path, exemplar_dir: &Path, cfg: &SynthConfig) -> R
         }
         _ => 0,
     };
-    let est = crate::memory_budget::check(sketch_path, w as u64, h as u64, library_cells, cfg.max_memory)
+    let est = crate::memory_budget::check(sketch, width as u64, height as u64, library_cells, cfg.max_memory)
         .map_err(SynthError::Memory)?;
     tracing::info!(estimated_peak_mb = est.total() >> 20, "memory estimate");
     Ok(())
 }
 
-fn validate(cfg: &SynthConfig) -> Result<(), SynthError> {
+/// Synthesises `sketch` from exemplars handed over in memory (heights in metres at
+/// `cfg.cell_size`), on in-process shards.
+pub fn run_on_heightfields(
+    sketch: Grid<u8>,
+    exemplars: &[(String, Heightfield)],
+    cfg: &SynthConfig,
+    pool: &rayon::ThreadPool,
+) -> Result<SynthOutput, SynthError> {
+    cancelled(cfg)?;
+    cfg.progress.report(Stage::Exemplars, 0, 1);
+    let t = Instant::now();
+    let shard_cfg = ShardConfig {
+        patch: cfg.patch,
+        out_cell: cfg.cell_size,
+        max_side: cfg.max_side,
+        cache: cfg.cache_dir.clone().map(FeatureCache::new),
+        gpu: GpuContext::open(cfg.gpu)?,
+    };
+    let n = cfg.shards.clamp(1, exemplars.len().max(1));
+    let shards: Shards = pool.install(|| {
+        (0..n)
+            .map(|s| {
+                let part: Vec<(u32, String, Heightfield)> = exemplars
+                    .iter()
+                    .enumerate()
+                    .filter(|(i, _)| i % n == s)
+                    .map(|(i, (name, h))| (i as u32, name.clone(), h.clone()))
+                    .collect();
+                Arc::new(InProcessShard::from_heightfields(part, &shard_cfg)) as Arc<dyn ShardScorer>
+            })
+            .collect()
+    });
+    if shards.iter().all(|s| s.sources().is_empty()) {
+        let why: Vec<String> = shards.iter().flat_map(|s| s.skipped()).map(|s| format!("\n  skipped {}", s.reason)).collect();
+        return Err(SynthError::NoExemplars(PathBuf::from("(exemplars in memory)"), why.concat()));
+    }
+    let load_s = t.elapsed().as_secs_f64();
+    cfg.progress.report(Stage::Exemplars, 1, 1);
+    let mut out = synthesize_in(sketch, &shards, cfg, pool)?;
+    out.report.cell_size_m = cfg.cell_size;
+    out.report.stages.insert(0, StageTiming { stage: "exemplars", seconds: load_s });
+    Ok(out)
+}
+
+/// `Err(Cancelled)` once the job's cancel token is set.
+fn cancelled(cfg: &SynthConfig) -> Result<(), SynthError> {
+    if cfg.cancel.is_cancelled() {
+        Err(SynthError::Cancelled)
+    } else {
+        Ok(())
+    }
+}
+
+pub(crate) fn validate(cfg: &SynthConfig) -> Result<(), SynthError> {
     if cfg.patch < 8 || cfg.patch > 512 || !cfg.patch.is_multiple_of(2) {
         return Err(SynthError::Config(format!("patch size {} must be even and within 8..=512", cfg.patch)));
     }
@@ -413,13 +497,15 @@ fn synthesize_in(
     report.skipped_exemplars = shards.iter().flat_map(|s| s.skipped()).collect();
     report.cache_hits = report.exemplars.iter().filter(|e| e.cache_hit).count();
 
+    cancelled(cfg)?;
     let t = Instant::now();
     let sk = {
         let _s = tracing::info_span!("stage", name = "sketch_features").entered();
         pool.install(|| analyse(&sketch, p))
     };
-    report.stage("sketch_features", t);
+    report.stage(Stage::SketchFeatures, t);
 
+    cancelled(cfg)?;
     let t = Instant::now();
     let ups = {
         let _s = tracing::info_span!("stage", name = "user_patches").entered();
@@ -428,14 +514,24 @@ fn synthesize_in(
     report.ridge_patches = ups.iter().filter(|u| u.kind == ridgeline_terrain::FeatureKind::Ridge).count();
     report.valley_patches = ups.len() - report.ridge_patches;
     tracing::info!(ridge = report.ridge_patches, valley = report.valley_patches, "user patches");
-    report.stage("user_patches", t);
+    report.stage(Stage::UserPatches, t);
 
     // rounds 1 and 2, pipelined by block
+    cancelled(cfg)?;
     let t = Instant::now();
     let mut canvas = Canvas::new(sketch.width, sketch.height, p);
-    let progress = |done: u64, total: u64| cfg.progress.report("feature placement", done, total);
-    let settings =
-        PlacementSettings { k: cfg.k, block: cfg.block, seed: cfg.seed, max_batch: cfg.max_batch, progress: &progress };
+    let progress = |done: u64, total: u64, c: &Canvas| {
+        cfg.progress.report(Stage::FeaturePlacement, done, total);
+        cfg.progress.placements(c);
+    };
+    let settings = PlacementSettings {
+        k: cfg.k,
+        block: cfg.block,
+        seed: cfg.seed,
+        max_batch: cfg.max_batch,
+        progress: &progress,
+        cancel: &cfg.cancel,
+    };
     let placed = {
         let _s = tracing::info_span!("stage", name = "feature_placement").entered();
         place_features(&mut canvas, &ups, shards, &settings, pool)?
@@ -446,15 +542,19 @@ fn synthesize_in(
     report.placement_batches = placed.batches;
     report.fallbacks = placed.fallbacks;
     report.stages.push(StageTiming { stage: "round1_scoring", seconds: placed.round1_s });
-    report.stage("feature_placement", t);
+    report.stage(Stage::FeaturePlacement, t);
     let features_only = cfg.keep_features_only.then(|| canvas.heights.clone());
 
+    cancelled(cfg)?;
     let t = Instant::now();
     let fill = {
         let _s = tracing::info_span!("stage", name = "hole_filling").entered();
         let empty = canvas.empty as u64;
-        let on_fill = |left: u64| cfg.progress.report("hole filling", empty - left, empty);
-        fill_holes(&mut canvas, shards, cfg.seed, pool, &on_fill)?
+        let on_fill = |left: u64, c: &Canvas| {
+            cfg.progress.report(Stage::HoleFilling, empty - left, empty);
+            cfg.progress.placements(c);
+        };
+        fill_holes(&mut canvas, shards, cfg.seed, pool, &on_fill, &cfg.cancel)?
     };
     report.hole_fills = fill.fills;
     report.fill_rounds = fill.rounds;
@@ -473,14 +573,28 @@ fn synthesize_in(
         cg_iterations = fill.cg_iterations,
         "holes filled"
     );
-    report.stage("hole_filling", t);
+    report.stage(Stage::HoleFilling, t);
     let d = p as f32 / 4.0;
     let bounds = [&sk.ridges, &sk.valleys];
-    report.ridge_adherence =
-        crate::quality::adherence(&canvas.heights, &sk.ridges, ridgeline_terrain::FeatureKind::Ridge, d, 4, 8, &bounds);
-    report.valley_adherence =
-        crate::quality::adherence(&canvas.heights, &sk.valleys, ridgeline_terrain::FeatureKind::Valley, d, 4, 8, &bounds);
-    report.seams = crate::quality::seam_score(&canvas.heights, &canvas.provenance.data);
+    report.ridge_adherence = crate::evaluation::quality::adherence(
+        &canvas.heights,
+        &sk.ridges,
+        ridgeline_terrain::FeatureKind::Ridge,
+        d,
+        4,
+        8,
+        &bounds,
+    );
+    report.valley_adherence = crate::evaluation::quality::adherence(
+        &canvas.heights,
+        &sk.valleys,
+        ridgeline_terrain::FeatureKind::Valley,
+        d,
+        4,
+        8,
+        &bounds,
+    );
+    report.seams = crate::evaluation::quality::seam_score(&canvas.heights, &canvas.provenance.data);
 
     for pl in &canvas.placements {
         let name = report.exemplars.iter().find(|e| e.source == pl.source).map(|e| e.name.clone()).unwrap_or_default();

@@ -290,9 +290,9 @@ fn colliding_outputs_and_bad_settings_are_refused_before_any_work() {
     let libs = lib.display().to_string();
     let same_dir_sketch = format!("{}/./../{}/sketch.png", d.display(), d.file_name().unwrap().to_string_lossy());
     let cases: Vec<(Vec<String>, &str)> = vec![
-        (vec!["--out".into(), sk.clone()], "same file as --sketch"),
-        (vec!["--out".into(), same_dir_sketch], "same file as --sketch"),
-        (vec!["--out".into(), out_png.clone(), "--preview".into(), out_png.clone()], "same file as --out"),
+        (vec!["--out".into(), sk.clone()], "same file as the sketch"),
+        (vec!["--out".into(), same_dir_sketch], "same file as the sketch"),
+        (vec!["--out".into(), out_png.clone(), "--preview".into(), out_png.clone()], "same file as the terrain"),
         (vec!["--out".into(), out_png.clone(), "--report".into(), d.join("t.json").display().to_string()], "sidecar"),
         (vec!["--out".into(), lib.join("o.tif").display().to_string()], "exemplar library"),
         (vec!["--out".into(), out_tif.clone(), "--tiles".into(), "2".into()], "more than"),

@@ -138,6 +138,9 @@ pub enum ShardError {
     Unavailable(String),
     #[error("bad request: {0}")]
     BadRequest(String),
+    /// The job was cancelled while it waited on the shard.
+    #[error("the job was cancelled")]
+    Cancelled,
 }
 
 /// Scores user patches against one shard of the exemplar library.

@@ -81,10 +81,38 @@ pub fn exemplar_features(h: &Heightfield, p: &PpaParams) -> (FeatureGraph, Featu
 pub fn load_source(id: u32, spec: &ExemplarSpec, cfg: &ShardConfig) -> Result<Source, LoadError> {
     let _span = tracing::info_span!("load_exemplar", file = %spec.name()).entered();
     let heights = load_exemplar(spec, cfg.out_cell, cfg.max_side)?;
+    // the cache key covers the file's bytes and everything that shaped the heights
+    let content =
+        || std::fs::read(&spec.path).map_err(|source| TerrainError::Read { path: spec.path.clone(), cause: source.into() });
+    let extra = (spec.to_metres, spec.cell_size_m, cfg.out_cell);
+    prepare_source(id, spec.name(), &spec.path, heights, cfg, |params, w, h| {
+        Ok(FeatureCache::key(&content()?, &(params, extra.0, extra.1, extra.2, w, h)))
+    })
+}
+
+/// Prepares an exemplar handed over as heights (metres, at the output cell size) by
+/// an embedding tool: the same checks and candidates as a file, cached by content.
+pub fn source_from_heights(id: u32, name: &str, heights: Heightfield, cfg: &ShardConfig) -> Result<Source, LoadError> {
+    let _span = tracing::info_span!("load_exemplar", name).entered();
+    let bytes: Vec<u8> = heights.data.iter().flat_map(|v| v.to_le_bytes()).collect();
+    let path = std::path::PathBuf::from(name);
+    prepare_source(id, name.to_string(), &path, heights, cfg, |params, w, h| Ok(FeatureCache::key(&bytes, &(params, w, h))))
+}
+
+/// Candidates of one exemplar's heights; `cache_key` names its feature graphs in the
+/// cache (called only when there is one).
+fn prepare_source(
+    id: u32,
+    name: String,
+    path: &std::path::Path,
+    heights: Heightfield,
+    cfg: &ShardConfig,
+    cache_key: impl FnOnce(&PpaParams, usize, usize) -> Result<String, LoadError>,
+) -> Result<Source, LoadError> {
     let reach = patch_reach(cfg.patch);
     if heights.width <= 2 * reach || heights.height <= 2 * reach {
         return Err(LoadError::TooSmall {
-            path: spec.path.clone(),
+            path: path.to_path_buf(),
             width: heights.width,
             height: heights.height,
             patch: cfg.patch,
@@ -95,12 +123,7 @@ pub fn load_source(id: u32, spec: &ExemplarSpec, cfg: &ShardConfig) -> Result<So
     let mut cache_hit = false;
     let graphs = match &cfg.cache {
         Some(cache) => {
-            let bytes = std::fs::read(&spec.path)
-                .map_err(|source| TerrainError::Read { path: spec.path.clone(), cause: source.into() })?;
-            let key = FeatureCache::key(
-                &bytes,
-                &(params, spec.to_metres, spec.cell_size_m, cfg.out_cell, heights.width, heights.height),
-            );
+            let key = cache_key(&params, heights.width, heights.height)?;
             match cache.get(&key, heights.width, heights.height) {
                 Some(g) => {
                     cache_hit = true;
@@ -127,7 +150,7 @@ pub fn load_source(id: u32, spec: &ExemplarSpec, cfg: &ShardConfig) -> Result<So
         "exemplar ready"
     );
     if nodes[0].is_empty() && nodes[1].is_empty() && featureless.is_empty() {
-        return Err(LoadError::Unusable { path: spec.path.clone() });
+        return Err(LoadError::Unusable { path: path.to_path_buf() });
     }
-    Ok(Source { id, name: spec.name(), heights, nodes, featureless, min_range: (0.02 * rel).max(1.0), cache_hit })
+    Ok(Source { id, name, heights, nodes, featureless, min_range: (0.02 * rel).max(1.0), cache_hit })
 }

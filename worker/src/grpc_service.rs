@@ -102,20 +102,27 @@ fn shard_status(e: ShardError) -> Status {
     match e {
         ShardError::BadRequest(m) => Status::invalid_argument(m),
         ShardError::Unavailable(m) => Status::unavailable(m),
+        ShardError::Cancelled => Status::cancelled("the job was cancelled"),
     }
+}
+
+/// Whether an `authorization` value is `Bearer {token}`, compared in constant time
+/// (the gRPC workers and the HTTP service share it).
+pub fn bearer_matches(got: &str, token: &str) -> bool {
+    let want = format!("Bearer {token}");
+    let (a, b) = (got.as_bytes(), want.as_bytes());
+    let mut diff = (a.len() ^ b.len()) as u8;
+    for i in 0..a.len().min(b.len()) {
+        diff |= a[i] ^ b[i];
+    }
+    diff == 0 && a.len() == b.len()
 }
 
 /// Checks the bearer token in constant time.
 pub fn check_token(expected: &Option<String>, req: &Request<()>) -> Result<(), Status> {
     let Some(tok) = expected else { return Ok(()) };
     let got = req.metadata().get("authorization").and_then(|v| v.to_str().ok()).unwrap_or("");
-    let want = format!("Bearer {tok}");
-    let (a, b) = (got.as_bytes(), want.as_bytes());
-    let mut diff = (a.len() ^ b.len()) as u8;
-    for i in 0..a.len().min(b.len()) {
-        diff |= a[i] ^ b[i];
-    }
-    if diff == 0 && a.len() == b.len() {
+    if bearer_matches(got, tok) {
         Ok(())
     } else {
         let caller = req.remote_addr().map(|a| a.to_string()).unwrap_or_else(|| "unknown".into());

@@ -50,21 +50,40 @@ impl InProcessShard {
         // rayon threads do not inherit the caller's span: re-enter it so every event
         // keeps the job's context (job id)
         let parent = tracing::Span::current();
-        let loaded: Vec<Result<Source, _>> = items
+        let loaded: Vec<(String, Result<Source, _>)> = items
             .par_iter()
             .map(|(id, spec)| {
                 let _g = parent.enter();
-                load_source(*id, spec, cfg)
+                (spec.name(), load_source(*id, spec, cfg))
             })
             .collect();
+        Self::from_loaded(loaded, cfg)
+    }
+
+    /// A shard of exemplars handed over in memory: `(id, name, heights in metres at
+    /// the output cell size)`, prepared as [`InProcessShard::load`] prepares files.
+    pub fn from_heightfields(items: Vec<(u32, String, ridgeline_terrain::grid::Heightfield)>, cfg: &ShardConfig) -> Self {
+        let parent = tracing::Span::current();
+        let loaded: Vec<(String, Result<Source, _>)> = items
+            .into_par_iter()
+            .map(|(id, name, h)| {
+                let _g = parent.enter();
+                let r = exemplar_store::source_from_heights(id, &name, h, cfg);
+                (name, r)
+            })
+            .collect();
+        Self::from_loaded(loaded, cfg)
+    }
+
+    fn from_loaded(loaded: Vec<(String, Result<Source, exemplar_store::LoadError>)>, cfg: &ShardConfig) -> Self {
         let mut sources = Vec::new();
         let mut skipped = Vec::new();
-        for (r, (_, spec)) in loaded.into_iter().zip(items) {
+        for (name, r) in loaded {
             match r {
                 Ok(s) => sources.push(s),
                 Err(e) => {
-                    tracing::warn!(file = %spec.path.display(), reason = %e, "exemplar skipped");
-                    skipped.push(SkippedExemplar { name: spec.name(), reason: e.to_string() });
+                    tracing::warn!(exemplar = %name, reason = %e, "exemplar skipped");
+                    skipped.push(SkippedExemplar { name, reason: e.to_string() });
                 }
             }
         }

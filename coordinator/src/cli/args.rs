@@ -36,6 +36,59 @@ pub enum Cmd {
     Evaluate(EvaluateArgs),
     /// Serve round-1 and hole-fill scoring to coordinators over gRPC.
     Worker(WorkerArgs),
+    /// Run the coordinator as a job service: an HTTP JSON API and a web page to draw
+    /// sketches, watch jobs and download terrains.
+    Serve(ServeArgs),
+}
+
+#[derive(clap::Args)]
+pub struct ServeArgs {
+    /// Address to listen on (port 0 picks a free port; the page's address is printed).
+    #[arg(long, default_value = "127.0.0.1:8080")]
+    pub listen: std::net::SocketAddr,
+    /// Exemplar library jobs draw from (a folder of DEMs or a manifest).
+    #[arg(long)]
+    pub exemplars: PathBuf,
+    /// Token clients must present (or RIDGELINE_TOKEN); also the fleet's cluster token.
+    /// Required unless the service listens on a loopback address.
+    #[arg(long, env = "RIDGELINE_TOKEN", hide_env_values = true)]
+    pub token: Option<String>,
+    /// Score on these gRPC workers (comma-separated URLs) instead of in-process.
+    #[arg(long, value_delimiter = ',', conflicts_with = "workers_file")]
+    pub workers: Vec<String>,
+    /// A file with one worker URL per line (# comments allowed).
+    #[arg(long)]
+    pub workers_file: Option<PathBuf>,
+    /// CA certificate (PEM) to verify https:// workers.
+    #[arg(long)]
+    pub tls_ca: Option<PathBuf>,
+    /// Deadline of one worker call, in seconds.
+    #[arg(long, default_value_t = 120)]
+    pub call_timeout_s: u64,
+    /// Folder for the jobs' outputs (default: a folder in the temporary directory).
+    #[arg(long)]
+    pub jobs_dir: Option<PathBuf>,
+    /// Most jobs waiting; a job over it is refused (HTTP 503) until one finishes.
+    #[arg(long, default_value_t = 8)]
+    pub max_queue: usize,
+    /// Finished jobs kept for download (oldest removed first).
+    #[arg(long, default_value_t = 32)]
+    pub keep_jobs: usize,
+    /// Largest request accepted, in MiB.
+    #[arg(long, default_value_t = 32)]
+    pub max_body_mb: usize,
+    /// Largest sketch or output side.
+    #[arg(long, default_value_t = 8192)]
+    pub max_side: u32,
+    /// Threads per job (0 = all cores).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// Feature cache folder.
+    #[arg(long)]
+    pub cache_dir: Option<PathBuf>,
+    /// Score in-process shards on the GPU: auto, on, off or software.
+    #[arg(long, default_value = "auto")]
+    pub gpu: ridgeline_worker::GpuMode,
 }
 
 #[derive(clap::Args)]

@@ -3,7 +3,7 @@
 //! interactive terminal.
 
 use super::args::LogFormat;
-use ridgeline::pipeline::Progress;
+use ridgeline::progress::{JobProgress, Stage};
 use std::io::IsTerminal;
 use std::sync::{Arc, Mutex};
 
@@ -16,10 +16,19 @@ pub fn job_id() -> String {
 }
 
 /// One progress bar per stage, with ETA, on an interactive terminal.
-pub fn progress_bars() -> Progress {
-    let current: Arc<Mutex<Option<(&'static str, indicatif::ProgressBar)>>> = Arc::new(Mutex::new(None));
-    Progress(Some(Arc::new(move |stage: &'static str, done: u64, total: u64| {
-        let Ok(mut cur) = current.lock() else { return };
+pub fn progress_bars() -> Arc<dyn JobProgress> {
+    Arc::new(Bars(Mutex::new(None)))
+}
+
+struct Bars(Mutex<Option<(Stage, indicatif::ProgressBar)>>);
+
+impl JobProgress for Bars {
+    fn progress(&self, stage: Stage, done: u64, total: u64) {
+        // the short stages are over before a bar would be seen
+        if !matches!(stage, Stage::FeaturePlacement | Stage::HoleFilling) {
+            return;
+        }
+        let Ok(mut cur) = self.0.lock() else { return };
         if cur.as_ref().map(|c| c.0) != Some(stage) {
             if let Some((_, pb)) = cur.take() {
                 pb.finish();
@@ -30,7 +39,7 @@ pub fn progress_bars() -> Progress {
                     .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
                     .progress_chars("=> "),
             );
-            pb.set_prefix(stage);
+            pb.set_prefix(stage.label());
             *cur = Some((stage, pb));
         }
         if let Some((_, pb)) = cur.as_ref() {
@@ -40,7 +49,7 @@ pub fn progress_bars() -> Progress {
                 pb.finish();
             }
         }
-    })))
+    }
 }
 
 /// Installs the log subscriber on stderr: text (colour codes only on a terminal, never

@@ -21,10 +21,11 @@
 //! exemplar of the library weighs the same.
 
 pub mod landforms;
+pub mod quality;
 pub mod spectrum;
 
-use crate::quality::{adherence, seam_score, SeamScore};
-use crate::sketch::SketchFeatures;
+use crate::evaluation::quality::{adherence, seam_score, SeamScore};
+use crate::stages::sketch::SketchFeatures;
 use landforms::Landforms;
 use ridgeline_terrain::grid::Heightfield;
 use ridgeline_terrain::FeatureKind;

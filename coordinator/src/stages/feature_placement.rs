@@ -1,7 +1,7 @@
 //! Feature placement: rounds 1 and 2 of patch matching, pipelined by block (Crause 2015
 //! §6.6, figure 6.9). A producer thread has every shard score block b+1 (round 1,
 //! `ShardScorer::score_block`) while the coordinator selects and merges block b
-//! (round 2, [`crate::selection::select_and_merge`]).
+//! (round 2, [`crate::stages::selection::select_and_merge`]).
 //!
 //! **Round 2 in parallel, same result as one by one.** Round 2 is order-dependent: a
 //! user patch is scored against the output its predecessors left. But two user
@@ -20,8 +20,8 @@
 
 use crate::canvas::{Canvas, Rect};
 use crate::pipeline::on_every_shard;
-use crate::selection::select_and_merge;
-use crate::user_patches::UserPatch;
+use crate::stages::selection::select_and_merge;
+use crate::stages::user_patches::UserPatch;
 use rayon::prelude::*;
 use ridgeline_terrain::costs::near_centre;
 use ridgeline_terrain::shard::{BestSet, ScoredCandidate, ShardError, ShardScorer};
@@ -111,7 +111,10 @@ pub struct PlacementSettings<'a> {
     pub seed: u64,
     /// Largest batch (0 = no limit; 1 = one user patch at a time).
     pub max_batch: usize,
-    pub progress: &'a (dyn Fn(u64, u64) + Sync),
+    /// Told after each batch: user patches done, of all, and the canvas.
+    pub progress: &'a (dyn Fn(u64, u64, &Canvas) + Sync),
+    /// Checked before each batch.
+    pub cancel: &'a crate::progress::CancelToken,
 }
 
 /// Places every user patch on the canvas (rounds 1 and 2).
@@ -185,6 +188,9 @@ pub fn place_features(
             Ok(())
         };
         while done < ups.len() as u64 {
+            if set.cancel.is_cancelled() {
+                return Err(ShardError::Cancelled);
+            }
             if pending.is_empty() {
                 let tw = Instant::now();
                 let msg = rx.recv().map_err(|_| ShardError::Unavailable("round-1 producer stopped".into()))?;
@@ -228,7 +234,7 @@ pub fn place_features(
             }
             pending = pending.into_iter().enumerate().filter(|(k, _)| !batch.contains(k)).map(|(_, e)| e).collect();
             done += batch.len() as u64;
-            (set.progress)(done, ups.len() as u64);
+            (set.progress)(done, ups.len() as u64, canvas);
         }
         Ok(())
     })?;

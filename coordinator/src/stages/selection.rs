@@ -16,8 +16,8 @@
 //! seed and never more.
 
 use crate::canvas::{Canvas, Placement};
-use crate::merge::SeamLimits;
-use crate::window_scoring::{cut_and_merge, Target};
+use crate::stages::merge::SeamLimits;
+use crate::stages::window_scoring::{cut_and_merge, Target};
 use rayon::prelude::*;
 use ridgeline_terrain::costs::{
     finite_std, jitter, noise_cost, noise_variances, overlap_cost, repeats, ALPHA_N, ALPHA_O, REPEAT_PENALTY, SEED_JITTER,

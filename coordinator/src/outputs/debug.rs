@@ -27,7 +27,7 @@ pub const DEBUG_FILES: [&str; 7] = [
 use crate::pipeline::SynthOutput;
 use font8x8::UnicodeFonts;
 use image::{Rgb, RgbImage};
-use ridgeline_terrain::grid::Grid;
+use ridgeline_terrain::grid::{Grid, Heightfield};
 use ridgeline_terrain::io::{hillshade, write_atomic, write_rgb_png};
 use ridgeline_terrain::FeatureKind;
 use std::path::Path;
@@ -217,7 +217,7 @@ fn seams_view(out: &SynthOutput, cell: f32) -> RgbImage {
     let w = t.width;
     let shade = hillshade(t, cell);
     let (mut inside, mut seams): (Vec<f64>, Vec<(usize, f64)>) = (Vec::new(), Vec::new());
-    crate::quality::visit_edges(t, prov, |cell, jump, across| {
+    crate::evaluation::quality::visit_edges(t, prov, |cell, jump, across| {
         if across {
             seams.push((cell, jump));
         } else {
@@ -243,14 +243,14 @@ fn seams_view(out: &SynthOutput, cell: f32) -> RgbImage {
 }
 
 /// Writes the debug outputs of a finished job into `dir` (created if needed).
-/// `library` (the job's exemplars) lets `landforms.png` show the main source's
-/// landforms beside the output's.
+/// `sources` (the job's exemplars at the output cell size, by name) let
+/// `landforms.png` show the main source's landforms beside the output's.
 pub fn write_debug_outputs(
     dir: &Path,
     out: &SynthOutput,
     sketch: &Grid<u8>,
     cell: f32,
-    library: Option<&Path>,
+    sources: Option<&[(String, Heightfield)]>,
 ) -> ridgeline_terrain::Result<()> {
     ridgeline_terrain::staging::create_output_dir(dir)
         .map_err(|source| ridgeline_terrain::TerrainError::Write { path: dir.to_path_buf(), cause: source.into() })?;
@@ -283,8 +283,7 @@ pub fn write_debug_outputs(
     write_atomic(&dir.join(crate::evaluation::PROVENANCE_CELLS), &cells)?;
     // the source that supplied most cells, at the output's cell size
     let prov = crate::evaluation::provenance_of(out);
-    let main_source = library.and_then(|lib| {
-        let sources = crate::evaluation::load_sources(lib, Some(cell), Some(&prov)).ok()?;
+    let main_source = sources.and_then(|sources| {
         let mut cells_of: std::collections::BTreeMap<&str, usize> = std::collections::BTreeMap::new();
         for &c in &prov.cells {
             if let Some(pl) = prov.placements.get(c as usize) {
@@ -292,7 +291,7 @@ pub fn write_debug_outputs(
             }
         }
         let best = cells_of.into_iter().max_by(|a, b| a.1.cmp(&b.1).then(b.0.cmp(a.0)))?.0.to_string();
-        sources.into_iter().find(|(n, _)| *n == best)
+        sources.iter().find(|(n, _)| *n == best)
     });
     write_rgb_png(&dir.join("landforms.png"), &landforms_view(out, main_source.as_ref().map(|(n, h)| (n.as_str(), h)), cell))?;
     write_rgb_png(&dir.join("seams.png"), &seams_view(out, cell))

@@ -8,7 +8,7 @@
 //! so a feature's end is placed by a patch that is centred near it rather than left to
 //! the edge of a neighbour's patch.
 
-use crate::sketch::SketchFeatures;
+use crate::stages::sketch::SketchFeatures;
 use ridgeline_terrain::feature_extraction::{FeatureGraph, FeatureKind};
 use ridgeline_terrain::patch_geometry::{exits, normalise_profile, profile_paths, Exit};
 use ridgeline_terrain::shard::UserPatchQuery;

@@ -66,11 +66,11 @@
 //! the window), and the merge cross-fades gradients over the two cells next to the
 //! seam (`merge.rs`).
 
-use crate::base_surface::{on_base, BaseSurface};
 use crate::canvas::{Canvas, Placement, Rect, Win};
-use crate::merge::SeamLimits;
 use crate::pipeline::on_every_shard;
-use crate::window_scoring::{cut_and_merge, Target, GRAPH_CUT_SET};
+use crate::stages::base_surface::{on_base, BaseSurface};
+use crate::stages::merge::SeamLimits;
+use crate::stages::window_scoring::{cut_and_merge, Target, GRAPH_CUT_SET};
 use rayon::prelude::*;
 use ridgeline_terrain::shard::{FillCandidate, FillQuery, ShardError, ShardScorer};
 use std::cmp::Reverse;
@@ -466,7 +466,8 @@ fn typical_slope(canvas: &Canvas) -> f32 {
 }
 
 /// Fills every empty cell of the canvas, scoring on `shards`. `on_fill` is told how
-/// many empty cells are left after each wave. Call it from outside `pool`: parallel
+/// many empty cells are left after each wave (with the canvas, whose placements then
+/// include those of the tiles committed so far); `cancel` is checked before each. Call it from outside `pool`: parallel
 /// sections run inside it, and shard calls wait outside it, so no pool thread ever
 /// waits on another (a one-thread pool cannot deadlock).
 pub fn fill_holes(
@@ -474,7 +475,8 @@ pub fn fill_holes(
     shards: &[Arc<dyn ShardScorer>],
     seed: u64,
     pool: &rayon::ThreadPool,
-    on_fill: &(dyn Fn(u64) + Sync),
+    on_fill: &(dyn Fn(u64, &Canvas) + Sync),
+    cancel: &crate::progress::CancelToken,
 ) -> Result<FillStats, FillError> {
     let mut stats = FillStats::default();
     let (w, h) = canvas.full_size();
@@ -541,6 +543,9 @@ pub fn fill_holes(
                     if queries.is_empty() {
                         break;
                     }
+                    if cancel.is_cancelled() {
+                        return Err(FillError::Shard(ShardError::Cancelled));
+                    }
                     stats.waves += 1;
                     let (owners, mut qs): (Vec<usize>, Vec<FillQuery>) = queries.into_iter().unzip();
                     qs.iter_mut().enumerate().for_each(|(i, q)| q.id = i as u32);
@@ -559,7 +564,7 @@ pub fn fill_holes(
                         })
                     });
                     let done: usize = tiles.iter().map(|t| t.initial_empty - t.sub.empty).sum();
-                    on_fill((canvas.empty - done) as u64);
+                    on_fill((canvas.empty - done) as u64, canvas);
                 }
                 // the committed tiles and their neighbours may have changed: recount each once
                 let mut touched = std::collections::BTreeSet::new();
@@ -578,7 +583,7 @@ pub fn fill_holes(
                     tile_empty[t] = count_empty(canvas, core(t));
                 }
             }
-            on_fill(canvas.empty as u64);
+            on_fill(canvas.empty as u64, canvas);
         }
         if canvas.empty == 0 {
             break;

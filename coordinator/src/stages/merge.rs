@@ -35,8 +35,8 @@
 //! patch so a region with no old neighbour is well posed.
 
 use crate::canvas::{Canvas, Placement, Win};
-use crate::graph_cut::{Force, Label, Seam};
-use crate::poisson::{PoissonProblem, SolveStats};
+use crate::solvers::graph_cut::{Force, Label, Seam};
+use crate::solvers::poisson::{PoissonProblem, SolveStats};
 
 /// Relative residual (‖b − Ax‖ / ‖b‖) at which the Poisson solve stops; the solve
 /// starts from the Shepard-deformed patch, which is already close.
@@ -54,7 +54,7 @@ pub const SEAM_FADE: usize = 2;
 pub fn seam_for(win: &Win, old: &[f32], new: &[f32], force: &[Force]) -> Seam {
     let mu = Canvas::mean_offset(old, new);
     let shifted: Vec<f32> = new.iter().map(|v| v + mu).collect();
-    crate::graph_cut::find_seam(win.w, win.h, old, &shifted, force)
+    crate::solvers::graph_cut::find_seam(win.w, win.h, old, &shifted, force)
 }
 
 /// How much of the interpolated gradient mismatch a cell keeps at `t` = (distance to

@@ -8,8 +8,8 @@
 //! by the relief), rather than used alone, so the ranking still counts among the five.
 
 use crate::canvas::{Canvas, Placement, Win};
-use crate::graph_cut::{Force, Seam};
-use crate::merge::{seam_for, MergeStats, SeamLimits};
+use crate::solvers::graph_cut::{Force, Seam};
+use crate::stages::merge::{seam_for, MergeStats, SeamLimits};
 use ridgeline_terrain::costs::{finite_std, noise_variances, NOISE_LEVELS};
 
 /// Candidates that go through the graph cut.

@@ -1,0 +1,315 @@
+//! The HTTP JSON API (routes in [`super::router`]):
+//!
+//! | method and path | what |
+//! |---|---|
+//! | `GET /api/exemplars` | the library: name, size, cell size of each exemplar |
+//! | `GET /api/exemplars/{name}/thumbnail.png` | a small hillshade of one |
+//! | `POST /api/jobs` | submit a [`JobRequest`]; `202` with the job's status |
+//! | `GET /api/jobs` | every job remembered, newest first |
+//! | `GET /api/jobs/{id}` | status with per-stage progress |
+//! | `GET /api/jobs/{id}/events` | server-sent events: `status` and `placed` |
+//! | `POST /api/jobs/{id}/cancel` | cancel (queued or running) |
+//! | `GET /api/jobs/{id}/files/{name}` | download one output file |
+//! | `GET /api/jobs/{id}/heights?max=N` | the terrain at most N samples a side, f32 LE |
+//!
+//! Every error is JSON `{"error": "..."}` with a sentence a person understands.
+
+use super::jobs::{JobEvent, SubmitError};
+use super::AppState;
+use crate::outputs::OutputFiles;
+use crate::session::{ExemplarSource, Session, SketchSource, StrokeSketch};
+use axum::body::Bytes;
+use axum::extract::{Path, Query, State};
+use axum::http::{header, StatusCode};
+use axum::response::sse::{Event, KeepAlive, Sse};
+use axum::response::{IntoResponse, Response};
+use axum::Json;
+use base64::Engine;
+use std::sync::Arc;
+use tokio_stream::StreamExt;
+
+/// An error answer.
+pub struct ApiError(pub StatusCode, pub String);
+
+impl IntoResponse for ApiError {
+    fn into_response(self) -> Response {
+        (self.0, Json(serde_json::json!({ "error": self.1 }))).into_response()
+    }
+}
+
+fn bad(m: impl Into<String>) -> ApiError {
+    ApiError(StatusCode::BAD_REQUEST, m.into())
+}
+
+fn not_found(m: impl Into<String>) -> ApiError {
+    ApiError(StatusCode::NOT_FOUND, m.into())
+}
+
+/// A job as submitted.
+#[derive(Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JobRequest {
+    pub sketch: SketchRequest,
+    /// Exemplar file names to use (default: the whole library).
+    #[serde(default)]
+    pub exemplars: Option<Vec<String>>,
+    #[serde(default)]
+    pub seed: u64,
+    #[serde(default = "default_patch")]
+    pub patch_size: usize,
+    /// Output size in cells (default: the sketch's).
+    #[serde(default)]
+    pub width: Option<usize>,
+    #[serde(default)]
+    pub height: Option<usize>,
+    /// Also cut the terrain into tiles of this many samples a side.
+    #[serde(default)]
+    pub tiles: Option<usize>,
+}
+
+fn default_patch() -> usize {
+    64
+}
+
+/// The sketch: a PNG (base64) or strokes.
+#[derive(Debug, serde::Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum SketchRequest {
+    PngBase64(String),
+    Strokes(StrokeSketch),
+}
+
+/// Most strokes and points in one sketch.
+const MAX_STROKES: usize = 20_000;
+const MAX_POINTS: usize = 2_000_000;
+
+pub async fn list_exemplars(State(st): State<Arc<AppState>>) -> Response {
+    Json(serde_json::json!({ "exemplars": st.library.entries() })).into_response()
+}
+
+pub async fn thumbnail(State(st): State<Arc<AppState>>, Path(name): Path<String>) -> Result<Response, ApiError> {
+    let st2 = st.clone();
+    let png = tokio::task::spawn_blocking(move || st2.library.thumbnail(&name))
+        .await
+        .map_err(|_| ApiError(StatusCode::INTERNAL_SERVER_ERROR, "thumbnail task failed".into()))?
+        .map_err(not_found)?;
+    Ok(([(header::CONTENT_TYPE, "image/png"), (header::CACHE_CONTROL, "max-age=3600")], png).into_response())
+}
+
+/// Parses and checks a job request; the session validates the rest.
+fn parse_request(body: &[u8], max_side: u32) -> Result<(JobRequest, SketchSource), ApiError> {
+    let req: JobRequest =
+        serde_json::from_slice(body).map_err(|e| bad(format!("the job request is not valid JSON for a job: {e}")))?;
+    let sketch = match &req.sketch {
+        SketchRequest::PngBase64(b64) => {
+            let bytes = base64::engine::general_purpose::STANDARD
+                .decode(b64.trim())
+                .map_err(|e| bad(format!("the sketch is not valid base64: {e}")))?;
+            let img = ridgeline_terrain::io::decode_sketch(std::path::Path::new("the uploaded sketch"), &bytes, max_side)
+                .map_err(|e| bad(e.to_string()))?;
+            SketchSource::Image(img)
+        }
+        SketchRequest::Strokes(s) => {
+            if s.strokes.len() > MAX_STROKES {
+                return Err(bad(format!("{} strokes: at most {MAX_STROKES}", s.strokes.len())));
+            }
+            let points: usize = s.strokes.iter().map(|s| s.points.len()).sum();
+            if points > MAX_POINTS {
+                return Err(bad(format!("{points} stroke points: at most {MAX_POINTS}")));
+            }
+            s.validate(max_side).map_err(bad)?;
+            SketchSource::Strokes(s.clone())
+        }
+    };
+    if req.width.is_some() != req.height.is_some() {
+        return Err(bad("give both width and height, or neither"));
+    }
+    Ok((req, sketch))
+}
+
+pub async fn submit(State(st): State<Arc<AppState>>, body: Bytes) -> Result<Response, ApiError> {
+    let (req, sketch) = parse_request(&body, st.config.max_side)?;
+    let cfg = st.config.clone();
+    let queue = st.queue.clone();
+    // building a session reads and checks everything: off the async threads
+    let result = tokio::task::spawn_blocking(move || {
+        let size = (req.width.unwrap_or(0), req.height.unwrap_or(0), req.patch_size, req.seed);
+        queue.submit(size, |dir, cancel| {
+            let mut b = Session::builder()
+                .sketch(sketch)
+                .exemplars(ExemplarSource::Library { path: cfg.library.clone(), only: req.exemplars.clone() })
+                .backend(cfg.backend.clone())
+                .seed(req.seed)
+                .patch_size(req.patch_size)
+                .threads(cfg.threads)
+                .cache_dir(cfg.cache_dir.clone())
+                .max_side(cfg.max_side)
+                .cancel(cancel)
+                .outputs(OutputFiles {
+                    terrain: dir.join("terrain.tif"),
+                    also: vec![dir.join("terrain16.png"), dir.join("terrain.r16")],
+                    tiles: req.tiles,
+                    preview: Some(dir.join("preview.png")),
+                    report: Some(dir.join("report.json")),
+                    debug_dir: None,
+                });
+            if let (Some(w), Some(h)) = (req.width, req.height) {
+                b = b.size(w, h);
+            }
+            b
+        })
+    })
+    .await
+    .map_err(|_| ApiError(StatusCode::INTERNAL_SERVER_ERROR, "submit task failed".into()))?;
+    match result {
+        Ok(id) => {
+            let status = st.queue.status(&id);
+            Ok((StatusCode::ACCEPTED, Json(status)).into_response())
+        }
+        Err(SubmitError::QueueFull(n)) => Err(ApiError(
+            StatusCode::SERVICE_UNAVAILABLE,
+            format!("the queue is full ({n} jobs waiting); try again when one has finished"),
+        )),
+        Err(SubmitError::ShuttingDown) => Err(ApiError(StatusCode::SERVICE_UNAVAILABLE, "the service is shutting down".into())),
+        Err(SubmitError::Invalid(m)) => Err(bad(m)),
+    }
+}
+
+pub async fn list_jobs(State(st): State<Arc<AppState>>) -> Response {
+    Json(serde_json::json!({ "jobs": st.queue.list() })).into_response()
+}
+
+pub async fn job_status(State(st): State<Arc<AppState>>, Path(id): Path<String>) -> Result<Response, ApiError> {
+    let s = st.queue.status(&id).ok_or_else(|| not_found(format!("no job '{id}'")))?;
+    Ok(Json(s).into_response())
+}
+
+pub async fn cancel(State(st): State<Arc<AppState>>, Path(id): Path<String>) -> Result<Response, ApiError> {
+    match st.queue.cancel(&id) {
+        None => Err(not_found(format!("no job '{id}'"))),
+        Some(false) => Err(ApiError(StatusCode::CONFLICT, format!("job '{id}' has already finished"))),
+        Some(true) => Ok(Json(st.queue.status(&id)).into_response()),
+    }
+}
+
+/// Server-sent events of one job: its status now and the patches placed so far,
+/// then every change until it finishes.
+pub async fn events(
+    State(st): State<Arc<AppState>>,
+    Path(id): Path<String>,
+) -> Result<Sse<impl tokio_stream::Stream<Item = Result<Event, std::convert::Infallible>>>, ApiError> {
+    // subscribe before the snapshot, so nothing falls between them
+    let rx = st.queue.subscribe();
+    let status = st.queue.status(&id).ok_or_else(|| not_found(format!("no job '{id}'")))?;
+    let placed = st.queue.placed(&id);
+    let finished = status.state.finished();
+    let mut first = vec![JobEvent::Status(status)];
+    if !placed.is_empty() {
+        first.insert(0, JobEvent::Placed { patches: placed });
+    }
+    let to_event = |e: &JobEvent| {
+        let name = match e {
+            JobEvent::Status(_) => "status",
+            JobEvent::Placed { .. } => "placed",
+        };
+        Ok(Event::default().event(name).data(serde_json::to_string(e).unwrap_or_default()))
+    };
+    let head = tokio_stream::iter(first.iter().map(to_event).collect::<Vec<_>>());
+    let want = id.clone();
+    // a task forwards this job's events until its final status, then drops the
+    // sender, which ends the stream (and the response) at once
+    let (tx, out) = tokio::sync::mpsc::channel::<Result<Event, std::convert::Infallible>>(256);
+    if !finished {
+        let mut rx = rx;
+        tokio::spawn(async move {
+            loop {
+                let e = match rx.recv().await {
+                    Ok((jid, e)) if jid == want => e,
+                    Ok(_) => continue,
+                    // a slow reader that lagged misses some events; the next status catches it up
+                    Err(tokio::sync::broadcast::error::RecvError::Lagged(_)) => continue,
+                    Err(tokio::sync::broadcast::error::RecvError::Closed) => break,
+                };
+                let end = matches!(&e, JobEvent::Status(s) if s.state.finished());
+                if tx.send(to_event(&e)).await.is_err() || end {
+                    break;
+                }
+            }
+        });
+    }
+    let live = tokio_stream::wrappers::ReceiverStream::new(out);
+    Ok(Sse::new(head.chain(live)).keep_alive(KeepAlive::default()))
+}
+
+/// Content type of an output file.
+fn content_type(name: &str) -> &'static str {
+    match name.rsplit('.').next().unwrap_or("") {
+        "png" => "image/png",
+        "tif" | "tiff" => "image/tiff",
+        "json" => "application/json",
+        _ => "application/octet-stream",
+    }
+}
+
+pub async fn file(State(st): State<Arc<AppState>>, Path((id, name)): Path<(String, String)>) -> Result<Response, ApiError> {
+    let s = st.queue.status(&id).ok_or_else(|| not_found(format!("no job '{id}'")))?;
+    // only names the job listed: no path ever comes from the request
+    if !s.files.contains(&name) {
+        return Err(not_found(format!("job '{id}' has no file '{name}'")));
+    }
+    let dir = st.queue.dir(&id).ok_or_else(|| not_found(format!("no job '{id}'")))?;
+    let bytes = tokio::fs::read(dir.join(&name)).await.map_err(|e| not_found(format!("{name}: {e}")))?;
+    Ok((
+        [
+            (header::CONTENT_TYPE, content_type(&name).to_string()),
+            (header::CONTENT_DISPOSITION, format!("attachment; filename=\"{id}-{name}\"")),
+        ],
+        bytes,
+    )
+        .into_response())
+}
+
+#[derive(serde::Deserialize)]
+pub struct HeightsQuery {
+    max: Option<usize>,
+}
+
+/// The finished terrain at most `max` (default 512) samples a side, as little-endian
+/// f32 rows, with its size in `x-width` and `x-height` (for the 3D view).
+pub async fn heights(
+    State(st): State<Arc<AppState>>,
+    Path(id): Path<String>,
+    Query(q): Query<HeightsQuery>,
+) -> Result<Response, ApiError> {
+    let s = st.queue.status(&id).ok_or_else(|| not_found(format!("no job '{id}'")))?;
+    if !s.files.iter().any(|f| f == "terrain.tif") {
+        return Err(ApiError(StatusCode::CONFLICT, format!("job '{id}' has no terrain yet ({:?})", s.state)));
+    }
+    let dir = st.queue.dir(&id).ok_or_else(|| not_found(format!("no job '{id}'")))?;
+    let max = q.max.unwrap_or(512).clamp(16, 2048);
+    let max_side = st.config.max_side;
+    let (w, h, bytes) = tokio::task::spawn_blocking(move || -> Result<_, String> {
+        let t = ridgeline_terrain::outputs::read_heightfield(&dir.join("terrain.tif"), max_side).map_err(|e| e.to_string())?;
+        let step = t.width.max(t.height).div_ceil(max).max(1);
+        let (w, h) = (t.width.div_ceil(step), t.height.div_ceil(step));
+        let mut out = Vec::with_capacity(w * h * 4);
+        for y in 0..h {
+            for x in 0..w {
+                out.extend_from_slice(&t.get((x * step).min(t.width - 1), (y * step).min(t.height - 1)).to_le_bytes());
+            }
+        }
+        Ok((w, h, out))
+    })
+    .await
+    .map_err(|_| ApiError(StatusCode::INTERNAL_SERVER_ERROR, "heights task failed".into()))?
+    .map_err(|e| ApiError(StatusCode::INTERNAL_SERVER_ERROR, e))?;
+    Ok((
+        [
+            (header::CONTENT_TYPE, "application/octet-stream".to_string()),
+            (header::HeaderName::from_static("x-width"), w.to_string()),
+            (header::HeaderName::from_static("x-height"), h.to_string()),
+        ],
+        bytes,
+    )
+        .into_response())
+}

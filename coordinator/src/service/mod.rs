@@ -1,0 +1,237 @@
+//! `ridgeline serve`: the coordinator as a long-lived job service. Jobs arrive over
+//! an HTTP JSON API ([`api`]), wait in a bounded queue and run one at a time
+//! ([`jobs`]) on in-process shards or the gRPC fleet, and stream their progress and
+//! placed patches as server-sent events; the web page ([`web`]) draws sketches,
+//! watches jobs and shows the result in 3D. Everything a job does goes through the
+//! library API ([`crate::session`]), as the command line's `synth` does.
+//!
+//! Security: beyond loopback the service requires a token (the workers' cluster token
+//! scheme): `Authorization: Bearer TOKEN`, or `?token=TOKEN` where a browser cannot set
+//! headers (event streams, download links). Request bodies are bounded
+//! ([`ServiceConfig::max_body`]); sketches and outputs by `max_side`.
+//!
+//! Written on axum (already in the dependency tree through tonic) with its SSE support.
+
+pub mod api;
+pub mod jobs;
+pub mod web;
+
+use crate::session::Backend;
+use axum::extract::{DefaultBodyLimit, Request, State};
+use axum::http::StatusCode;
+use axum::middleware::Next;
+use axum::response::{IntoResponse, Response};
+use axum::routing::{get, post};
+use axum::Router;
+use jobs::JobQueue;
+use ridgeline_terrain::library::{scan_library, ExemplarSpec};
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+
+/// Settings of the service.
+#[derive(Debug, Clone)]
+pub struct ServiceConfig {
+    /// The exemplar library (folder or manifest) jobs draw from.
+    pub library: PathBuf,
+    /// Where jobs' folders go.
+    pub jobs_dir: PathBuf,
+    pub backend: Backend,
+    /// Token clients must present; required beyond loopback.
+    pub token: Option<String>,
+    /// Most jobs waiting.
+    pub max_queue: usize,
+    /// Finished jobs remembered (their files kept).
+    pub keep_jobs: usize,
+    /// Largest request body in bytes.
+    pub max_body: usize,
+    /// Largest sketch or output side.
+    pub max_side: u32,
+    /// Threads per job (0 = all cores).
+    pub threads: usize,
+    pub cache_dir: Option<PathBuf>,
+}
+
+impl Default for ServiceConfig {
+    fn default() -> Self {
+        ServiceConfig {
+            library: PathBuf::new(),
+            jobs_dir: std::env::temp_dir().join("ridgeline-jobs"),
+            backend: Backend::default(),
+            token: None,
+            max_queue: 8,
+            keep_jobs: 32,
+            max_body: 32 << 20,
+            max_side: 8192,
+            threads: 0,
+            cache_dir: Some(ridgeline_worker::FeatureCache::default_dir()),
+        }
+    }
+}
+
+/// Why the service could not start.
+#[derive(Debug, thiserror::Error)]
+pub enum ServiceError {
+    #[error("refusing to serve on {0} without a token: pass --token or set RIDGELINE_TOKEN (only loopback addresses may run without one)")]
+    NoToken(std::net::SocketAddr),
+    #[error(transparent)]
+    Library(#[from] ridgeline_terrain::TerrainError),
+    #[error("{0}: the exemplar library holds no DEM")]
+    EmptyLibrary(PathBuf),
+    #[error("{path}: {cause}", path = .0.display(), cause = .1)]
+    JobsDir(PathBuf, std::io::Error),
+    #[error("{0}")]
+    Io(#[from] std::io::Error),
+}
+
+/// The library as the page sees it: names, sizes, thumbnails made on first request.
+pub struct LibraryIndex {
+    specs: Vec<ExemplarSpec>,
+    thumbs: Mutex<BTreeMap<String, Arc<Vec<u8>>>>,
+    max_side: u32,
+}
+
+/// Side of an exemplar thumbnail in pixels (the longer side).
+pub const THUMBNAIL_SIDE: usize = 96;
+
+impl LibraryIndex {
+    pub fn scan(library: &std::path::Path, max_side: u32) -> Result<Self, ServiceError> {
+        let specs = scan_library(library)?;
+        if specs.is_empty() {
+            return Err(ServiceError::EmptyLibrary(library.to_path_buf()));
+        }
+        Ok(LibraryIndex { specs, thumbs: Mutex::new(BTreeMap::new()), max_side })
+    }
+
+    /// Name and cell size of every exemplar.
+    pub fn entries(&self) -> Vec<serde_json::Value> {
+        self.specs.iter().map(|s| serde_json::json!({ "name": s.name(), "cell_size_m": s.cell_size_m })).collect()
+    }
+
+    /// A small hillshade of exemplar `name` as PNG.
+    pub fn thumbnail(&self, name: &str) -> Result<Vec<u8>, String> {
+        if let Some(t) = self.thumbs.lock().unwrap_or_else(|e| e.into_inner()).get(name) {
+            return Ok(t.to_vec());
+        }
+        let spec = self.specs.iter().find(|s| s.name() == name).ok_or_else(|| format!("no exemplar '{name}' in the library"))?;
+        let h = ridgeline_terrain::library::load_exemplar(spec, None, self.max_side).map_err(|e| e.to_string())?;
+        let scale = (h.width.max(h.height) as f32 / THUMBNAIL_SIDE as f32).max(1.0);
+        let (w, hh) = (((h.width as f32 / scale) as usize).max(1), ((h.height as f32 / scale) as usize).max(1));
+        let small = h.resample(w, hh);
+        let cell = spec.cell_size_m.unwrap_or(90.0) * scale;
+        let img = ridgeline_terrain::io::hillshade(&small, cell);
+        let mut png = Vec::new();
+        img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png).map_err(|e| e.to_string())?;
+        self.thumbs.lock().unwrap_or_else(|e| e.into_inner()).insert(name.to_string(), Arc::new(png.clone()));
+        Ok(png)
+    }
+}
+
+/// What every handler shares.
+pub struct AppState {
+    pub config: ServiceConfig,
+    pub queue: JobQueue,
+    pub library: LibraryIndex,
+}
+
+/// Refuses API calls without the token (when one is set).
+async fn require_token(State(st): State<Arc<AppState>>, req: Request, next: Next) -> Response {
+    let Some(token) = &st.config.token else { return next.run(req).await };
+    let header = req.headers().get("authorization").and_then(|v| v.to_str().ok()).unwrap_or("");
+    let query_token = req
+        .uri()
+        .query()
+        .unwrap_or("")
+        .split('&')
+        .find_map(|kv| kv.strip_prefix("token="))
+        .map(|t| format!("Bearer {t}"))
+        .unwrap_or_default();
+    if ridgeline_worker::grpc_service::bearer_matches(header, token)
+        || ridgeline_worker::grpc_service::bearer_matches(&query_token, token)
+    {
+        return next.run(req).await;
+    }
+    tracing::warn!(path = %req.uri().path(), "request refused: missing or wrong token");
+    api::ApiError(StatusCode::UNAUTHORIZED, "missing or wrong token: the service needs the token it was started with".into())
+        .into_response()
+}
+
+/// Refuses a body whose declared length is over the limit before reading any of it,
+/// and turns the body limit's plain-text refusal (a body without a declared length
+/// that grows over it) into the API's JSON error.
+async fn body_limit(State(st): State<Arc<AppState>>, req: Request, next: Next) -> Response {
+    let declared = req.headers().get("content-length").and_then(|v| v.to_str().ok()).and_then(|v| v.parse::<u64>().ok());
+    if declared.is_some_and(|n| n > st.config.max_body as u64) {
+        return api::ApiError(
+            StatusCode::PAYLOAD_TOO_LARGE,
+            "the request is larger than the service accepts (--max-body-mb)".into(),
+        )
+        .into_response();
+    }
+    let res = next.run(req).await;
+    if res.status() == StatusCode::PAYLOAD_TOO_LARGE
+        && res.headers().get("content-type").and_then(|v| v.to_str().ok()).is_some_and(|c| c.starts_with("text/plain"))
+    {
+        return api::ApiError(
+            StatusCode::PAYLOAD_TOO_LARGE,
+            "the request is larger than the service accepts (--max-body)".into(),
+        )
+        .into_response();
+    }
+    res
+}
+
+/// The routes: the page and its files without the token (they hold no data), the API
+/// behind it.
+pub fn router(state: Arc<AppState>) -> Router {
+    let api = Router::new()
+        .route("/api/exemplars", get(api::list_exemplars))
+        .route("/api/exemplars/{name}/thumbnail.png", get(api::thumbnail))
+        .route("/api/jobs", post(api::submit).get(api::list_jobs))
+        .route("/api/jobs/{id}", get(api::job_status))
+        .route("/api/jobs/{id}/events", get(api::events))
+        .route("/api/jobs/{id}/cancel", post(api::cancel))
+        .route("/api/jobs/{id}/files/{name}", get(api::file))
+        .route("/api/jobs/{id}/heights", get(api::heights))
+        .layer(axum::middleware::from_fn_with_state(state.clone(), require_token))
+        .layer(DefaultBodyLimit::max(state.config.max_body))
+        .layer(axum::middleware::from_fn_with_state(state.clone(), body_limit));
+    Router::new().route("/", get(web::index)).route("/static/{file}", get(web::asset)).merge(api).with_state(state)
+}
+
+/// Serves until `shutdown` resolves: binds nothing itself (`listener` is bound), runs
+/// the job runner on a thread of its own, and on shutdown cancels the running job.
+pub async fn serve(
+    listener: tokio::net::TcpListener,
+    config: ServiceConfig,
+    shutdown: impl std::future::Future<Output = ()> + Send + 'static,
+) -> Result<(), ServiceError> {
+    let addr = listener.local_addr()?;
+    if config.token.is_none() && !addr.ip().is_loopback() {
+        return Err(ServiceError::NoToken(addr));
+    }
+    std::fs::create_dir_all(&config.jobs_dir).map_err(|e| ServiceError::JobsDir(config.jobs_dir.clone(), e))?;
+    let library = LibraryIndex::scan(&config.library, config.max_side)?;
+    let queue = JobQueue::new(config.jobs_dir.clone(), config.max_queue, config.keep_jobs);
+    let runner = {
+        let q = queue.clone();
+        let span = tracing::Span::current();
+        std::thread::Builder::new().name("ridgeline-jobs".into()).spawn(move || {
+            let _g = span.enter();
+            q.run_forever()
+        })?
+    };
+    let state = Arc::new(AppState { config, queue: queue.clone(), library });
+    tracing::info!(%addr, "service listening");
+    // cancel the jobs first: their event streams end with the final status, so the
+    // graceful shutdown does not wait on them
+    let q = queue.clone();
+    let shutdown = async move {
+        shutdown.await;
+        q.shut_down();
+    };
+    let result = axum::serve(listener, router(state)).with_graceful_shutdown(shutdown).await;
+    queue.shut_down();
+    let _ = tokio::task::spawn_blocking(move || runner.join()).await;
+    result.map_err(ServiceError::Io)
+}

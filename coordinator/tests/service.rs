@@ -1,0 +1,336 @@
+//! `ridgeline serve` over HTTP, without a browser: a job from strokes to every
+//! download with a ridge under the drawn ridge, live events, clear JSON errors for
+//! bad input (a bad PNG, an unknown exemplar, an oversized request, a wrong token),
+//! a full queue refused, a cancel of a queued and of a running job, and the service
+//! going on after all of it.
+
+use std::io::{BufRead, BufReader, Read};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("rl-svc-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn shared() -> Option<PathBuf> {
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data");
+    if p.join("dems").is_dir() {
+        Some(p)
+    } else {
+        eprintln!("SKIPPED: {} not found", p.display());
+        None
+    }
+}
+
+/// Three real DEMs (symlinked).
+fn library(d: &Path, data: &Path) -> PathBuf {
+    let lib = d.join("lib");
+    std::fs::create_dir_all(&lib).unwrap();
+    for n in ["appalachians.png", "rockies.png", "highlands.png"] {
+        std::os::unix::fs::symlink(data.join("dems").join(n).canonicalize().unwrap(), lib.join(n)).unwrap();
+    }
+    std::fs::write(
+        lib.join("dems.csv"),
+        "file,cell_size_m,vertical_unit\nappalachians.png,90,feet\nrockies.png,90,feet\nhighlands.png,90,feet\n",
+    )
+    .unwrap();
+    lib
+}
+
+struct Server {
+    child: Child,
+    url: String,
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn serve(d: &Path, lib: &Path, extra: &[&str]) -> Server {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_ridgeline"))
+        .args(["serve", "--listen", "127.0.0.1:0", "--threads", "2", "--exemplars"])
+        .arg(lib)
+        .arg("--jobs-dir")
+        .arg(d.join("jobs"))
+        .arg("--cache-dir")
+        .arg(d.join("cache"))
+        .args(["--gpu", "off"])
+        .args(extra)
+        .env_remove("RIDGELINE_TOKEN")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+    let url = line.trim().strip_prefix("ridgeline is serving on ").unwrap_or_else(|| panic!("unexpected first line: {line}"));
+    Server { child, url: url.trim_end_matches('/').to_string() }
+}
+
+/// A sketch as strokes: one ridge across, one valley below it.
+fn strokes(w: usize, h: usize) -> serde_json::Value {
+    let (wf, hf) = (w as f32, h as f32);
+    serde_json::json!({
+        "width": w, "height": h,
+        "strokes": [
+            { "pen": "ridge", "width": 3.0, "points": [[0.1 * wf, 0.35 * hf], [0.5 * wf, 0.3 * hf], [0.9 * wf, 0.35 * hf]] },
+            { "pen": "valley", "width": 3.0, "points": [[0.1 * wf, 0.75 * hf], [0.9 * wf, 0.7 * hf]] }
+        ]
+    })
+}
+
+fn post(url: &str, body: &serde_json::Value, token: Option<&str>) -> (u16, serde_json::Value) {
+    let mut req = ureq::post(url).set("content-type", "application/json");
+    if let Some(t) = token {
+        req = req.set("authorization", &format!("Bearer {t}"));
+    }
+    answer(req.send_string(&body.to_string()))
+}
+
+fn get(url: &str) -> (u16, serde_json::Value) {
+    answer(ureq::get(url).call())
+}
+
+fn answer(r: Result<ureq::Response, ureq::Error>) -> (u16, serde_json::Value) {
+    let resp = match r {
+        Ok(r) => r,
+        Err(ureq::Error::Status(_, r)) => r,
+        Err(e) => panic!("{e}"),
+    };
+    let code = resp.status();
+    let text = resp.into_string().unwrap();
+    (code, serde_json::from_str(&text).unwrap_or_else(|_| panic!("not JSON ({code}): {text}")))
+}
+
+/// Sends only the head of a `POST /api/jobs` that declares `len` bytes of body, and
+/// reads the answer (a client sending the whole body may see the connection closed
+/// under it, which is what a refusal from the declared length does).
+fn post_declaring(url: &str, len: usize, token: &str) -> (u16, serde_json::Value) {
+    use std::io::Write;
+    let addr = url.trim_start_matches("http://");
+    let mut c = std::net::TcpStream::connect(addr).unwrap();
+    write!(
+        c,
+        "POST /api/jobs HTTP/1.1\r\nHost: {addr}\r\nAuthorization: Bearer {token}\r\nContent-Type: application/json\r\nContent-Length: {len}\r\nConnection: close\r\n\r\n"
+    )
+    .unwrap();
+    c.set_read_timeout(Some(std::time::Duration::from_secs(20))).unwrap();
+    let mut text = String::new();
+    let _ = c.read_to_string(&mut text);
+    let code: u16 = text.split_whitespace().nth(1).and_then(|c| c.parse().ok()).unwrap_or(0);
+    let body = text.find('{').and_then(|a| text.rfind('}').map(|b| &text[a..=b])).unwrap_or("null");
+    (code, serde_json::from_str(body).unwrap_or(serde_json::Value::Null))
+}
+
+/// Follows a job's event stream to its end: (final status, patches placed).
+fn follow(url: &str, id: &str) -> (serde_json::Value, usize) {
+    follow_with(url, id, "")
+}
+
+fn follow_with(url: &str, id: &str, query: &str) -> (serde_json::Value, usize) {
+    let resp = ureq::get(&format!("{url}/api/jobs/{id}/events{query}")).call().unwrap();
+    let mut reader = BufReader::new(resp.into_reader());
+    let (mut event, mut last, mut placed) = (String::new(), serde_json::Value::Null, 0);
+    let mut line = String::new();
+    while reader.read_line(&mut line).unwrap() > 0 {
+        let l = line.trim_end().to_string();
+        line.clear();
+        if let Some(e) = l.strip_prefix("event: ").or_else(|| l.strip_prefix("event:")) {
+            event = e.trim().to_string();
+        } else if let Some(data) = l.strip_prefix("data: ").or_else(|| l.strip_prefix("data:")) {
+            let v: serde_json::Value = serde_json::from_str(data.trim()).unwrap();
+            match event.as_str() {
+                "placed" => placed += v["patches"].as_array().unwrap().len(),
+                "status" => last = v,
+                _ => {}
+            }
+        }
+    }
+    (last, placed)
+}
+
+#[test]
+fn a_stroked_sketch_becomes_a_terrain_with_every_download_and_a_ridge_under_the_ridge() {
+    let Some(data) = shared() else { return };
+    let d = tmp("job");
+    let lib = library(&d, &data);
+    let s = serve(&d, &lib, &[]);
+    let (code, list) = get(&format!("{}/api/exemplars", s.url));
+    assert_eq!(code, 200);
+    assert_eq!(list["exemplars"].as_array().unwrap().len(), 3);
+    let thumb = ureq::get(&format!("{}/api/exemplars/rockies.png/thumbnail.png", s.url)).call().unwrap();
+    let mut png = Vec::new();
+    thumb.into_reader().read_to_end(&mut png).unwrap();
+    let img = image::load_from_memory(&png).unwrap();
+    assert!(img.width().max(img.height()) <= 96 && img.width() > 8, "a thumbnail");
+
+    let (w, h) = (192usize, 160usize);
+    let body = serde_json::json!({ "sketch": { "strokes": strokes(w, h) }, "seed": 3, "patch_size": 32, "tiles": 96 });
+    let (code, st) = post(&format!("{}/api/jobs", s.url), &body, None);
+    assert_eq!(code, 202, "{st}");
+    let id = st["id"].as_str().unwrap().to_string();
+    let (fin, placed) = follow(&s.url, &id);
+    assert_eq!(fin["state"], "done", "{fin}");
+    assert!(placed > 4, "placed patches were streamed: {placed}");
+    let stages: Vec<&str> = fin["stages"].as_array().unwrap().iter().map(|s| s["stage"].as_str().unwrap()).collect();
+    for want in ["exemplars", "feature_placement", "hole_filling", "write"] {
+        assert!(stages.contains(&want), "stage {want} in {stages:?}");
+    }
+    let files: Vec<&str> = fin["files"].as_array().unwrap().iter().map(|f| f.as_str().unwrap()).collect();
+    for want in ["terrain.tif", "terrain16.png", "terrain16.json", "terrain.r16", "terrain.json", "preview.png", "report.json"] {
+        assert!(files.contains(&want), "{want} in {files:?}");
+    }
+    assert!(files.iter().any(|f| f.starts_with("terrain_x1_y0")), "tiles: {files:?}");
+    let mut raw = Vec::new();
+    ureq::get(&format!("{}/api/jobs/{id}/files/terrain.r16", s.url)).call().unwrap().into_reader().read_to_end(&mut raw).unwrap();
+    assert_eq!(raw.len(), w * h * 2, "RAW16 of the requested size");
+    let v = |x: usize, y: usize| u16::from_le_bytes([raw[2 * (y * w + x)], raw[2 * (y * w + x) + 1]]) as f64;
+    // the ridge runs near y = 0.3..0.35 h; compare it with 16 cells above and below
+    let (mut on, mut off) = (0.0, 0.0);
+    for x in (40..150).step_by(4) {
+        let t = (x as f64 / w as f64 - 0.1) / 0.4;
+        let y = if t <= 1.0 { 0.35 - 0.05 * t } else { 0.3 + 0.05 * (t - 1.0) } * h as f64;
+        let y = y.round() as usize;
+        on += v(x, y);
+        off += (v(x, y - 16) + v(x, y + 16)) / 2.0;
+    }
+    assert!(on > off, "the terrain is higher under the drawn ridge: {on} vs {off}");
+    let report: serde_json::Value = serde_json::from_str(
+        &ureq::get(&format!("{}/api/jobs/{id}/files/report.json", s.url)).call().unwrap().into_string().unwrap(),
+    )
+    .unwrap();
+    assert_eq!(report["width"], w);
+    assert!(report["evaluation"]["landform_distance"].is_number(), "the report has the realism figures");
+    let resp = ureq::get(&format!("{}/api/jobs/{id}/heights?max=64", s.url)).call().unwrap();
+    let hw: usize = resp.header("x-width").unwrap().parse().unwrap();
+    let hh: usize = resp.header("x-height").unwrap().parse().unwrap();
+    assert!(hw <= 64 && hh <= 64 && hw >= 32, "{hw} x {hh}");
+    let mut hb = Vec::new();
+    resp.into_reader().read_to_end(&mut hb).unwrap();
+    assert_eq!(hb.len(), hw * hh * 4);
+    // a name the job did not list is never read, whatever it says
+    let (code, e) = get(&format!("{}/api/jobs/{id}/files/..%2F..%2Fetc%2Fpasswd", s.url));
+    assert_eq!(code, 404, "{e}");
+    // the page is served
+    let page = ureq::get(&format!("{}/", s.url)).call().unwrap().into_string().unwrap();
+    assert!(page.contains("ridgeline") && page.contains("/static/app.js"));
+}
+
+#[test]
+fn bad_requests_get_clear_json_errors_and_the_token_is_required() {
+    let Some(data) = shared() else { return };
+    let d = tmp("bad");
+    let lib = library(&d, &data);
+    let s = serve(&d, &lib, &["--token", "s3cret", "--max-body-mb", "1"]);
+    let jobs = format!("{}/api/jobs", s.url);
+    let ok = serde_json::json!({ "sketch": { "strokes": strokes(64, 64) } });
+    let (code, e) = post(&jobs, &ok, None);
+    assert_eq!(code, 401, "{e}");
+    assert!(e["error"].as_str().unwrap().contains("token"), "{e}");
+    let (code, e) = post(&jobs, &ok, Some("wrong"));
+    assert_eq!(code, 401, "{e}");
+    // the page itself holds no data and needs no token
+    assert_eq!(ureq::get(&format!("{}/", s.url)).call().unwrap().status(), 200);
+    let tok = Some("s3cret");
+    use base64::Engine;
+    let garbage = base64::engine::general_purpose::STANDARD.encode(b"\x89PNG\r\n\x1a\nnot really a png");
+    let cases: Vec<(serde_json::Value, &str)> = vec![
+        (serde_json::json!({ "sketch": { "png_base64": garbage } }), "not a valid image"),
+        (serde_json::json!({ "sketch": { "png_base64": "%%%" } }), "base64"),
+        (
+            serde_json::json!({ "sketch": { "strokes": strokes(64, 64) }, "exemplars": ["nope.png"] }),
+            "no exemplar named 'nope.png'",
+        ),
+        (serde_json::json!({ "sketch": { "strokes": strokes(64, 64) }, "patch_size": 7 }), "patch size"),
+        (serde_json::json!({ "sketch": { "strokes": strokes(8, 8) } }), "16..="),
+        (serde_json::json!({ "sketch": { "strokes": strokes(64, 64) }, "width": 100 }), "both width and height"),
+        (
+            serde_json::json!({ "sketch": { "strokes": { "width": 64, "height": 64, "strokes": [{ "pen": "ridge", "width": 500.0, "points": [[1.0, 1.0]] }] } } }),
+            "pen width",
+        ),
+        (serde_json::json!({ "sketch": "nothing" }), "not valid JSON for a job"),
+    ];
+    for (body, want) in cases {
+        let (code, e) = post(&jobs, &body, tok);
+        assert_eq!(code, 400, "{body}: {e}");
+        assert!(e["error"].as_str().unwrap().contains(want), "{body}: expected '{want}' in {e}");
+    }
+    // a body over --max-body-mb is refused from its declared length, before it is read
+    let (code, e) = post_declaring(&s.url, 2 << 20, "s3cret");
+    assert_eq!(code, 413, "{e}");
+    assert!(e["error"].as_str().unwrap().contains("larger"), "{e}");
+    let r = ureq::get(&format!("{}/api/jobs/nope", s.url)).set("authorization", "Bearer s3cret").call();
+    assert!(matches!(r, Err(ureq::Error::Status(404, _))));
+    // after all of that, a good job still runs (token in the query, as a browser's event stream sends it)
+    let (code, st) = post(&jobs, &ok, tok);
+    assert_eq!(code, 202, "{st}");
+    let (fin, _) = follow_with(&s.url, st["id"].as_str().unwrap(), "?token=s3cret");
+    assert_eq!(fin["state"], "done", "{fin}");
+}
+
+#[test]
+fn a_full_queue_is_refused_and_cancel_stops_queued_and_running_jobs() {
+    let Some(data) = shared() else { return };
+    let d = tmp("queue");
+    let lib = library(&d, &data);
+    let s = serve(&d, &lib, &["--max-queue", "1", "--keep-jobs", "8"]);
+    let jobs = format!("{}/api/jobs", s.url);
+    let long = serde_json::json!({ "sketch": { "strokes": strokes(1536, 1536) }, "patch_size": 32 });
+    let (code, a) = post(&jobs, &long, None);
+    assert_eq!(code, 202, "{a}");
+    let a = a["id"].as_str().unwrap().to_string();
+    // wait until A runs, so the queue holds exactly B
+    for _ in 0..200 {
+        if get(&format!("{jobs}/{a}")).1["state"] == "running" {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    let (code, b) = post(&jobs, &long, None);
+    assert_eq!(code, 202, "{b}");
+    assert_eq!(b["queue_position"], 0, "{b}");
+    let b = b["id"].as_str().unwrap().to_string();
+    let (code, e) = post(&jobs, &long, None);
+    assert_eq!(code, 503, "{e}");
+    assert!(e["error"].as_str().unwrap().contains("queue is full"), "{e}");
+    let (code, st) = post(&format!("{jobs}/{b}/cancel"), &serde_json::json!({}), None);
+    assert_eq!(code, 200, "{st}");
+    assert_eq!(get(&format!("{jobs}/{b}")).1["state"], "cancelled");
+    // A is running: cancel stops it at its next check
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    let t = std::time::Instant::now();
+    let (code, _) = post(&format!("{jobs}/{a}/cancel"), &serde_json::json!({}), None);
+    assert_eq!(code, 200);
+    let (fin, _) = follow(&s.url, &a);
+    assert_eq!(fin["state"], "cancelled", "{fin}");
+    assert!(t.elapsed().as_secs_f64() < 30.0, "cancel took {:?}", t.elapsed());
+    assert!(fin["files"].as_array().unwrap().is_empty());
+    assert!(!d.join("jobs").join(&a).exists(), "a cancelled job leaves no folder behind");
+    let (code, e) = post(&format!("{jobs}/{a}/cancel"), &serde_json::json!({}), None);
+    assert_eq!(code, 409, "{e}");
+    // the service goes on
+    let (code, c) = post(&jobs, &serde_json::json!({ "sketch": { "strokes": strokes(96, 96) }, "patch_size": 32 }), None);
+    assert_eq!(code, 202, "{c}");
+    let (fin, _) = follow(&s.url, c["id"].as_str().unwrap());
+    assert_eq!(fin["state"], "done", "{fin}");
+}
+
+#[test]
+fn serving_beyond_loopback_needs_a_token() {
+    let d = tmp("open");
+    let out = Command::new(env!("CARGO_BIN_EXE_ridgeline"))
+        .args(["serve", "--listen", "0.0.0.0:0", "--exemplars"])
+        .arg(&d)
+        .env_remove("RIDGELINE_TOKEN")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("without a token"), "{err}");
+}
