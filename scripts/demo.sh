@@ -51,3 +51,4 @@ fi
   --debug-dir out/demo/debug \
   --report out/demo/report.json
 echo "terrain: out/demo/terrain.tif   preview: out/demo/preview.png   report: out/demo/report.json   debug: out/demo/debug/"
+echo "to sketch in the browser: ./target/release/ridgeline serve --exemplars $EXEMPLARS   (then open the address it prints)"

@@ -20,6 +20,15 @@ if ! ldconfig -p 2>/dev/null | grep -q libvulkan.so.1 || ! ls /usr/share/vulkan/
     echo "warning: no Vulkan driver and not root: GPU parity tests will skip (apt-get install mesa-vulkan-drivers libvulkan1)" >&2
   fi
 fi
+# Debian's Chromium for the web page's end-to-end test (driven by playwright-core,
+# which cannot download a browser of its own here)
+if [ ! -x /usr/bin/chromium ]; then
+  if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
+    echo "installing chromium for the web page's end-to-end test" >&2
+    (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null) ||
+      echo "warning: could not install chromium" >&2
+  fi
+fi
 # lavapipe warns at every start without a runtime dir
 export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
 # deploy/ manifests against the Kubernetes and Compose schemas
@@ -27,6 +36,19 @@ bash scripts/check-deploy.sh
 cargo fmt --all -- --check
 cargo clippy --workspace --all-targets --release -- -D warnings
 cargo test --workspace --release
+# the library without the command line's dependencies (what an embedding tool builds)
+cargo clippy -p ridgeline --release --no-default-features --lib --examples -- -D warnings
+# the web page end to end in headless Chromium (tests/web/e2e.mjs)
+DATA="${RIDGELINE_SHARED_DATA:-../shared/data}"
+if [ -d "$DATA/dems" ] && [ -x /usr/bin/chromium ] && command -v npm >/dev/null 2>&1; then
+  npm ci --prefix tests/web --no-audit --no-fund --loglevel=error
+  node tests/web/e2e.mjs target/release/ridgeline "$DATA" out/web/page.png
+elif [ "${CI:-}" = true ]; then
+  echo "error: the web end-to-end test needs $DATA/dems, /usr/bin/chromium and npm" >&2
+  exit 1
+else
+  echo "SKIPPED: web end-to-end test (needs $DATA/dems, /usr/bin/chromium and npm)" >&2
+fi
 # the optional OpenTelemetry export (a cargo feature, off by default): lint and test it
 cargo clippy -p ridgeline --release --features otlp --all-targets -- -D warnings
 cargo test -p ridgeline --release --features otlp --test otlp
