@@ -64,23 +64,35 @@ fn run(cmd: Cmd, interactive: bool, human: bool) -> Result<()> {
     }
 }
 
-fn serve(a: ServeArgs) -> Result<()> {
+/// In-process shards, or the fleet at `urls` when there are any.
+fn backend(
+    urls: Vec<String>,
+    gpu: ridgeline_worker::GpuMode,
+    token: &Option<String>,
+    tls_ca: &Option<PathBuf>,
+    call_timeout_s: u64,
+    job_id: Option<String>,
+) -> ridgeline::session::Backend {
     use ridgeline::session::Backend;
+    if urls.is_empty() {
+        return Backend::InProcess { gpu, shards: 1 };
+    }
+    Backend::Fleet(ridgeline::cluster::ClusterConfig {
+        workers: urls,
+        token: token.clone(),
+        tls_ca: tls_ca.clone(),
+        call_timeout: std::time::Duration::from_secs(call_timeout_s.max(1)),
+        job_id,
+        ..Default::default()
+    })
+}
+
+fn serve(a: ServeArgs) -> Result<()> {
     if a.token.is_none() && !a.listen.ip().is_loopback() {
         bail!("refusing to serve on {} without a token: pass --token or set RIDGELINE_TOKEN (only loopback addresses may run without one)", a.listen);
     }
     let urls = parse_worker_urls(&a.workers, a.workers_file.as_deref())?;
-    let backend = if urls.is_empty() {
-        Backend::InProcess { gpu: a.gpu, shards: 1 }
-    } else {
-        Backend::Fleet(ridgeline::cluster::ClusterConfig {
-            workers: urls,
-            token: a.token.clone(),
-            tls_ca: a.tls_ca.clone(),
-            call_timeout: std::time::Duration::from_secs(a.call_timeout_s.max(1)),
-            ..Default::default()
-        })
-    };
+    let backend = backend(urls, a.gpu, &a.token, &a.tls_ca, a.call_timeout_s, None);
     let cfg = ridgeline::service::ServiceConfig {
         library: a.exemplars.clone(),
         jobs_dir: a
@@ -170,20 +182,8 @@ fn serve_metrics(addr: Option<std::net::SocketAddr>) -> Result<()> {
 }
 
 fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
-    use ridgeline::session::{Backend, ExemplarSource, Session, SketchSource};
-    let urls = worker_urls(&a)?;
-    let backend = if urls.is_empty() {
-        Backend::InProcess { gpu: a.gpu, shards: 1 }
-    } else {
-        Backend::Fleet(ridgeline::cluster::ClusterConfig {
-            workers: urls,
-            token: a.token.clone(),
-            tls_ca: a.tls_ca.clone(),
-            call_timeout: std::time::Duration::from_secs(a.call_timeout_s.max(1)),
-            job_id: JOB_ID.get().cloned(),
-            ..Default::default()
-        })
-    };
+    use ridgeline::session::{ExemplarSource, Session, SketchSource};
+    let backend = backend(worker_urls(&a)?, a.gpu, &a.token, &a.tls_ca, a.call_timeout_s, JOB_ID.get().cloned());
     let mut builder = Session::builder()
         .sketch(SketchSource::File(a.sketch.clone()))
         .exemplars(ExemplarSource::library(&a.exemplars))

@@ -313,10 +313,7 @@ pub fn load_library(dir: &Path, only: Option<&[String]>, cfg: &SynthConfig) -> R
                 .collect()
         }
     };
-    if shards.iter().all(|s| s.sources().is_empty()) {
-        let why: Vec<String> = shards.iter().flat_map(|s| s.skipped()).map(|s| format!("\n  skipped {}", s.reason)).collect();
-        return Err(SynthError::NoExemplars(dir.to_path_buf(), why.concat()));
-    }
+    some_source(&shards, dir)?;
     Ok((shards, cell))
 }
 
@@ -345,26 +342,46 @@ pub fn run_on_library(
     cfg: &SynthConfig,
     pool: &rayon::ThreadPool,
 ) -> Result<SynthOutput, SynthError> {
-    cancelled(cfg)?;
-    cfg.progress.report(Stage::Exemplars, 0, 1);
-    let t = Instant::now();
-    let (shards, cell) = {
-        let stage = tracing::info_span!("stage", name = "exemplars");
-        // pool threads do not inherit the span: enter it there, so every event names the job
-        pool.install(|| stage.in_scope(|| load_library(exemplar_dir, only, cfg)))?
-    };
-    let load_s = t.elapsed().as_secs_f64();
-    cfg.progress.report(Stage::Exemplars, 1, 1);
-    let mut out = synthesize_in(sketch, &shards, cfg, pool)?;
+    let out = run_on_shards(sketch, cfg, pool, || load_library(exemplar_dir, only, cfg))?;
     if let (Some(cluster), Some(cache)) = (&cfg.cluster, &cfg.cache_dir) {
         // the next job's shards are sized by what this one measured
         if let Err(e) = cluster.rates.save(cache) {
             tracing::warn!(cache = %cache.display(), error = %e, "worker throughput not saved");
         }
     }
+    Ok(out)
+}
+
+/// The exemplars stage (`load`, on the pool, timed and reported), then the rest.
+fn run_on_shards(
+    sketch: Grid<u8>,
+    cfg: &SynthConfig,
+    pool: &rayon::ThreadPool,
+    load: impl FnOnce() -> Result<(Shards, Option<f32>), SynthError> + Send,
+) -> Result<SynthOutput, SynthError> {
+    cancelled(cfg)?;
+    cfg.progress.report(Stage::Exemplars, 0, 1);
+    let t = Instant::now();
+    let (shards, cell) = {
+        let stage = tracing::info_span!("stage", name = "exemplars");
+        // pool threads do not inherit the span: enter it there, so every event names the job
+        pool.install(|| stage.in_scope(load))?
+    };
+    let load_s = t.elapsed().as_secs_f64();
+    cfg.progress.report(Stage::Exemplars, 1, 1);
+    let mut out = synthesize_in(sketch, &shards, cfg, pool)?;
     out.report.cell_size_m = cell;
     out.report.stages.insert(0, StageTiming { stage: "exemplars", seconds: load_s });
     Ok(out)
+}
+
+/// `Err(NoExemplars)` when no shard holds a usable exemplar, listing why each was skipped.
+fn some_source(shards: &[Arc<dyn ShardScorer>], what: &Path) -> Result<(), SynthError> {
+    if shards.iter().all(|s| s.sources().is_empty()) {
+        let why: Vec<String> = shards.iter().flat_map(|s| s.skipped()).map(|s| format!("\n  skipped {}", s.reason)).collect();
+        return Err(SynthError::NoExemplars(what.to_path_buf(), why.concat()));
+    }
+    Ok(())
 }
 
 /// Refuses, before any work, a job whose estimated peak memory exceeds its budget.
@@ -400,19 +417,16 @@ pub fn run_on_heightfields(
     cfg: &SynthConfig,
     pool: &rayon::ThreadPool,
 ) -> Result<SynthOutput, SynthError> {
-    cancelled(cfg)?;
-    cfg.progress.report(Stage::Exemplars, 0, 1);
-    let t = Instant::now();
-    let shard_cfg = ShardConfig {
-        patch: cfg.patch,
-        out_cell: cfg.cell_size,
-        max_side: cfg.max_side,
-        cache: cfg.cache_dir.clone().map(FeatureCache::new),
-        gpu: GpuContext::open(cfg.gpu)?,
-    };
-    let n = cfg.shards.clamp(1, exemplars.len().max(1));
-    let shards: Shards = pool.install(|| {
-        (0..n)
+    run_on_shards(sketch, cfg, pool, || {
+        let shard_cfg = ShardConfig {
+            patch: cfg.patch,
+            out_cell: cfg.cell_size,
+            max_side: cfg.max_side,
+            cache: cfg.cache_dir.clone().map(FeatureCache::new),
+            gpu: GpuContext::open(cfg.gpu)?,
+        };
+        let n = cfg.shards.clamp(1, exemplars.len().max(1));
+        let shards: Shards = (0..n)
             .map(|s| {
                 let part: Vec<(u32, String, Heightfield)> = exemplars
                     .iter()
@@ -422,18 +436,10 @@ pub fn run_on_heightfields(
                     .collect();
                 Arc::new(InProcessShard::from_heightfields(part, &shard_cfg)) as Arc<dyn ShardScorer>
             })
-            .collect()
-    });
-    if shards.iter().all(|s| s.sources().is_empty()) {
-        let why: Vec<String> = shards.iter().flat_map(|s| s.skipped()).map(|s| format!("\n  skipped {}", s.reason)).collect();
-        return Err(SynthError::NoExemplars(PathBuf::from("(exemplars in memory)"), why.concat()));
-    }
-    let load_s = t.elapsed().as_secs_f64();
-    cfg.progress.report(Stage::Exemplars, 1, 1);
-    let mut out = synthesize_in(sketch, &shards, cfg, pool)?;
-    out.report.cell_size_m = cfg.cell_size;
-    out.report.stages.insert(0, StageTiming { stage: "exemplars", seconds: load_s });
-    Ok(out)
+            .collect();
+        some_source(&shards, Path::new("(exemplars in memory)"))?;
+        Ok((shards, cfg.cell_size))
+    })
 }
 
 /// `Err(Cancelled)` once the job's cancel token is set.

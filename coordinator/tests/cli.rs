@@ -2,45 +2,20 @@
 //! nothing written or clobbered on failure, JSON logs with a job id on every event,
 //! every output format, tiles that reassemble, debug outputs, fetch-dem offline.
 
+mod support;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use support::{shared, small_library};
+
+fn tmp(name: &str) -> PathBuf {
+    support::scratch("cli", name)
+}
 
 fn bin() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_ridgeline"));
     c.env_remove("RUST_LOG");
     c
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("rl-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn shared() -> Option<PathBuf> {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data");
-    if p.join("dems").is_dir() {
-        Some(p)
-    } else {
-        eprintln!("SKIPPED: {} not found", p.display());
-        None
-    }
-}
-
-/// A small library of three real DEMs (symlinked, never copied into the repository).
-fn small_library(d: &Path, data: &Path) -> PathBuf {
-    let lib = d.join("lib");
-    std::fs::create_dir_all(&lib).unwrap();
-    for n in ["appalachians.png", "rockies.png", "highlands.png"] {
-        std::os::unix::fs::symlink(data.join("dems").join(n).canonicalize().unwrap(), lib.join(n)).unwrap();
-    }
-    std::fs::write(
-        lib.join("dems.csv"),
-        "file,cell_size_m,vertical_unit\nappalachians.png,90,feet\nrockies.png,90,feet\nhighlands.png,90,feet\n",
-    )
-    .unwrap();
-    lib
 }
 
 fn small_sketch(d: &Path) -> PathBuf {

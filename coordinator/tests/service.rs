@@ -4,40 +4,15 @@
 //! a full queue refused, a cancel of a queued and of a running job, and the service
 //! going on after all of it.
 
+mod support;
+
 use std::io::{BufRead, BufReader, Read};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
+use support::{shared, small_library};
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("rl-svc-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn shared() -> Option<PathBuf> {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data");
-    if p.join("dems").is_dir() {
-        Some(p)
-    } else {
-        eprintln!("SKIPPED: {} not found", p.display());
-        None
-    }
-}
-
-/// Three real DEMs (symlinked).
-fn library(d: &Path, data: &Path) -> PathBuf {
-    let lib = d.join("lib");
-    std::fs::create_dir_all(&lib).unwrap();
-    for n in ["appalachians.png", "rockies.png", "highlands.png"] {
-        std::os::unix::fs::symlink(data.join("dems").join(n).canonicalize().unwrap(), lib.join(n)).unwrap();
-    }
-    std::fs::write(
-        lib.join("dems.csv"),
-        "file,cell_size_m,vertical_unit\nappalachians.png,90,feet\nrockies.png,90,feet\nhighlands.png,90,feet\n",
-    )
-    .unwrap();
-    lib
+    support::scratch("svc", name)
 }
 
 struct Server {
@@ -159,7 +134,7 @@ fn follow_with(url: &str, id: &str, query: &str) -> (serde_json::Value, usize) {
 fn a_stroked_sketch_becomes_a_terrain_with_every_download_and_a_ridge_under_the_ridge() {
     let Some(data) = shared() else { return };
     let d = tmp("job");
-    let lib = library(&d, &data);
+    let lib = small_library(&d, &data);
     let s = serve(&d, &lib, &[]);
     let (code, list) = get(&format!("{}/api/exemplars", s.url));
     assert_eq!(code, 200);
@@ -226,7 +201,7 @@ fn a_stroked_sketch_becomes_a_terrain_with_every_download_and_a_ridge_under_the_
 fn bad_requests_get_clear_json_errors_and_the_token_is_required() {
     let Some(data) = shared() else { return };
     let d = tmp("bad");
-    let lib = library(&d, &data);
+    let lib = small_library(&d, &data);
     let s = serve(&d, &lib, &["--token", "s3cret", "--max-body-mb", "1"]);
     let jobs = format!("{}/api/jobs", s.url);
     let ok = serde_json::json!({ "sketch": { "strokes": strokes(64, 64) } });
@@ -278,7 +253,7 @@ fn bad_requests_get_clear_json_errors_and_the_token_is_required() {
 fn a_full_queue_is_refused_and_cancel_stops_queued_and_running_jobs() {
     let Some(data) = shared() else { return };
     let d = tmp("queue");
-    let lib = library(&d, &data);
+    let lib = small_library(&d, &data);
     let s = serve(&d, &lib, &["--max-queue", "1", "--keep-jobs", "8"]);
     let jobs = format!("{}/api/jobs", s.url);
     let long = serde_json::json!({ "sketch": { "strokes": strokes(1536, 1536) }, "patch_size": 32 });
