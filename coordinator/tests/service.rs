@@ -146,7 +146,8 @@ fn a_stroked_sketch_becomes_a_terrain_with_every_download_and_a_ridge_under_the_
     assert!(img.width().max(img.height()) <= 96 && img.width() > 8, "a thumbnail");
 
     let (w, h) = (192usize, 160usize);
-    let body = serde_json::json!({ "sketch": { "strokes": strokes(w, h) }, "seed": 3, "patch_size": 32, "tiles": 96 });
+    let body =
+        serde_json::json!({ "sketch": { "strokes": strokes(w, h) }, "seed": 3, "patch_size": 32, "tiles": 96, "debug": true });
     let (code, st) = post(&format!("{}/api/jobs", s.url), &body, None);
     assert_eq!(code, 202, "{st}");
     let id = st["id"].as_str().unwrap().to_string();
@@ -162,6 +163,9 @@ fn a_stroked_sketch_becomes_a_terrain_with_every_download_and_a_ridge_under_the_
         assert!(files.contains(&want), "{want} in {files:?}");
     }
     assert!(files.iter().any(|f| f.starts_with("terrain_x1_y0")), "tiles: {files:?}");
+    for want in ["seams.png", "landforms.png", "provenance.json", "features_only.png"] {
+        assert!(files.contains(&want), "debug view {want} in {files:?}");
+    }
     let mut raw = Vec::new();
     ureq::get(&format!("{}/api/jobs/{id}/files/terrain.r16", s.url)).call().unwrap().into_reader().read_to_end(&mut raw).unwrap();
     assert_eq!(raw.len(), w * h * 2, "RAW16 of the requested size");

@@ -174,6 +174,13 @@ async function finished(status) {
     'terrain.json': 'sidecar of the RAW16',
     'preview.png': 'hillshade',
     'report.json': 'job report: timings, adherence, realism figures',
+    'sketch_features.png': 'debug: detected ridge and valley lines, user patches',
+    'features_only.png': 'debug: the terrain before hole filling',
+    'provenance.png': 'debug: which exemplar each cell came from',
+    'provenance.json': 'debug: every placement (for ridgeline evaluate --provenance)',
+    'provenance_cells.u32': 'debug: the placement of every cell',
+    'landforms.png': 'debug: landforms of the output beside its main source',
+    'seams.png': 'debug: seam map',
   };
   for (const f of status.files) {
     const li = document.createElement('li');
@@ -229,6 +236,7 @@ $('submit').addEventListener('click', async () => {
     seed: Number($('seed').value),
     patch_size: Number($('patch').value),
     tiles: tiles > 0 ? tiles : null,
+    debug: $('debug').checked,
   };
   $('submit').disabled = true;
   $('result').hidden = true;

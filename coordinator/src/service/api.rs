@@ -65,6 +65,10 @@ pub struct JobRequest {
     /// Also cut the terrain into tiles of this many samples a side.
     #[serde(default)]
     pub tiles: Option<usize>,
+    /// Also write the debug views (`synth --debug-dir`): sketch lines, the terrain
+    /// before hole filling, provenance, landforms beside the main source's, seams.
+    #[serde(default)]
+    pub debug: bool,
 }
 
 fn default_patch() -> usize {
@@ -151,8 +155,9 @@ pub async fn submit(State(st): State<Arc<AppState>>, body: Bytes) -> Result<Resp
                     tiles: req.tiles,
                     preview: Some(dir.join("preview.png")),
                     report: Some(dir.join("report.json")),
-                    debug_dir: None,
-                });
+                    debug_dir: req.debug.then(|| dir.to_path_buf()),
+                })
+                .keep_features_only(req.debug);
             if let (Some(w), Some(h)) = (req.width, req.height) {
                 b = b.size(w, h);
             }
