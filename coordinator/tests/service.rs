@@ -1,7 +1,8 @@
 //! `ridgeline serve` over HTTP, without a browser: a job from strokes to every
 //! download with a ridge under the drawn ridge, live events, clear JSON errors for
 //! bad input (a bad PNG, an unknown exemplar, an oversized request, a wrong token),
-//! a full queue refused, a cancel of a queued and of a running job, and the service
+//! a job that fails while it runs (an unreadable DEM) reported with its reason, a
+//! full queue refused, a cancel of a queued and of a running job, and the service
 //! going on after all of it.
 
 mod support;
@@ -206,6 +207,8 @@ fn bad_requests_get_clear_json_errors_and_the_token_is_required() {
     let Some(data) = shared() else { return };
     let d = tmp("bad");
     let lib = small_library(&d, &data);
+    // a DEM that cannot be read: a job using only it fails while it runs, not before
+    std::fs::write(lib.join("broken.png"), b"\x89PNG\r\n\x1a\nbroken").unwrap();
     let s = serve(&d, &lib, &["--token", "s3cret", "--max-body-mb", "1"]);
     let jobs = format!("{}/api/jobs", s.url);
     let ok = serde_json::json!({ "sketch": { "strokes": strokes(64, 64) } });
@@ -246,6 +249,15 @@ fn bad_requests_get_clear_json_errors_and_the_token_is_required() {
     assert!(e["error"].as_str().unwrap().contains("larger"), "{e}");
     let r = ureq::get(&format!("{}/api/jobs/nope", s.url)).set("authorization", "Bearer s3cret").call();
     assert!(matches!(r, Err(ureq::Error::Status(404, _))));
+    let only_broken = serde_json::json!({ "sketch": { "strokes": strokes(64, 64) }, "exemplars": ["broken.png"] });
+    let (code, st) = post(&jobs, &only_broken, tok);
+    assert_eq!(code, 202, "{st}");
+    let (fin, _) = follow_with(&s.url, st["id"].as_str().unwrap(), "?token=s3cret");
+    assert_eq!(fin["state"], "failed", "{fin}");
+    let why = fin["error"].as_str().unwrap();
+    assert!(why.contains("no usable exemplar") && why.contains("broken.png"), "{why}");
+    let r = ureq::get(&format!("{}/api/exemplars/broken.png/thumbnail.png?token=s3cret", s.url)).call();
+    assert!(matches!(r, Err(ureq::Error::Status(404, _))), "a thumbnail of an unreadable DEM is a clear 404");
     // after all of that, a good job still runs (token in the query, as a browser's event stream sends it)
     let (code, st) = post(&jobs, &ok, tok);
     assert_eq!(code, 202, "{st}");
