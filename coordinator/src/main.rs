@@ -146,17 +146,20 @@ fn worker(a: WorkerArgs) -> Result<()> {
             max_per_caller: a.max_per_caller.max(1),
         },
     };
-    // find out that the data dir is unusable before telling anyone we listen
-    ridgeline_worker::grpc_service::check_data_dir(&data_dir).map_err(|e| anyhow::anyhow!("{e}"))?;
-    serve_metrics(a.metrics_listen)?;
-    let tls = match (a.tls_cert, a.tls_key) {
-        (Some(cert), Some(key)) => Some(ridgeline_worker::grpc_service::TlsFiles { cert, key }),
-        _ => None,
-    };
     let (backend, adapter) = match &cfg.gpu {
         Some(g) => ("gpu", g.info.adapter.clone()),
         None => ("cpu", "rayon".to_string()),
     };
+    // everything that can fail (the data dir, the TLS files) fails before we tell
+    // anyone we listen
+    let service = ridgeline_worker::grpc_service::WorkerService::new(cfg).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let tls = match (a.tls_cert, a.tls_key) {
+        (Some(cert), Some(key)) => {
+            Some(ridgeline_worker::grpc_service::TlsFiles { cert, key }.load().map_err(|e| anyhow::anyhow!("{e}"))?)
+        }
+        _ => None,
+    };
+    serve_metrics(a.metrics_listen)?;
     let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
     rt.block_on(async move {
         let listener = tokio::net::TcpListener::bind(a.listen).await.with_context(|| format!("cannot listen on {}", a.listen))?;
@@ -168,7 +171,7 @@ fn worker(a: WorkerArgs) -> Result<()> {
         let shutdown = async {
             let _ = tokio::signal::ctrl_c().await;
         };
-        ridgeline_worker::grpc_service::serve(listener, cfg, tls, shutdown).await.map_err(|e| anyhow::anyhow!("{e}"))
+        ridgeline_worker::grpc_service::serve(listener, service, tls, shutdown).await.map_err(|e| anyhow::anyhow!("{e}"))
     })
 }
 

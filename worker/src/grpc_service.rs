@@ -460,19 +460,28 @@ pub struct TlsFiles {
     pub key: PathBuf,
 }
 
-/// Serves the worker on `listener` until `shutdown` resolves. Prints nothing; the
-/// caller reports the bound address.
+impl TlsFiles {
+    /// Reads the certificate and key (before the worker says it listens, so a missing
+    /// file is reported by name and nobody is told to connect).
+    pub fn load(&self) -> Result<tonic::transport::Identity, String> {
+        let read = |p: &Path| std::fs::read(p).map_err(|e| format!("{}: {e}", p.display()));
+        Ok(tonic::transport::Identity::from_pem(read(&self.cert)?, read(&self.key)?))
+    }
+}
+
+/// Serves `service` on `listener` until `shutdown` resolves. Prints nothing; the
+/// caller reports the bound address once the service and its TLS identity are ready
+/// (a worker that says it listens must not then fail on its data dir).
 pub async fn serve(
     listener: tokio::net::TcpListener,
-    cfg: WorkerConfig,
-    tls: Option<TlsFiles>,
+    service: WorkerService,
+    tls: Option<tonic::transport::Identity>,
     shutdown: impl std::future::Future<Output = ()> + Send,
 ) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
-    let token = cfg.token.clone();
-    let cfg_limits = cfg.connections;
-    let svc = WorkerServer::new(WorkerService::new(cfg)?)
-        .max_decoding_message_size(MAX_MESSAGE_BYTES)
-        .max_encoding_message_size(MAX_MESSAGE_BYTES);
+    let token = service.cfg.token.clone();
+    let cfg_limits = service.cfg.connections;
+    let svc =
+        WorkerServer::new(service).max_decoding_message_size(MAX_MESSAGE_BYTES).max_encoding_message_size(MAX_MESSAGE_BYTES);
     let server =
         tonic::service::interceptor::InterceptedService::new(svc, move |req: Request<()>| check_token(&token, &req).map(|_| req));
     let limits = cfg_limits;
@@ -482,9 +491,7 @@ pub async fn serve(
         .http2_keepalive_interval(Some(std::time::Duration::from_secs(30)))
         .http2_keepalive_timeout(Some(std::time::Duration::from_secs(10)))
         .max_concurrent_streams(Some(64));
-    if let Some(t) = tls {
-        let read = |p: &Path| std::fs::read(p).map_err(|e| format!("{}: {e}", p.display()));
-        let identity = tonic::transport::Identity::from_pem(read(&t.cert)?, read(&t.key)?);
+    if let Some(identity) = tls {
         builder = builder.tls_config(tonic::transport::ServerTlsConfig::new().identity(identity))?;
     }
     // the standard gRPC health service, without the token (Kubernetes probes and load

@@ -90,6 +90,21 @@ pub struct Cluster {
     pub rates: super::throughput::WorkerRates,
 }
 
+/// An error with its chain of causes ("transport error: tcp connect error: Connection
+/// refused"), so an operator sees why a worker could not be reached.
+fn with_causes(e: &dyn std::error::Error) -> String {
+    let mut s = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        let c_text = c.to_string();
+        if !s.contains(&c_text) {
+            s = format!("{s}: {c_text}");
+        }
+        cause = c.source();
+    }
+    s
+}
+
 pub(crate) fn retryable(s: &Status) -> bool {
     use tonic::Code::*;
     matches!(s.code(), Unavailable | DeadlineExceeded | Unknown | Aborted | Cancelled | ResourceExhausted | Internal)
@@ -198,7 +213,9 @@ impl Cluster {
             Err(s) => {
                 tracing::warn!(worker = %url, error = %s.message(), "worker unreachable");
                 self.alive[w].store(false, Ordering::SeqCst);
-                Err(format!("{url}: {} ({:?})", s.message(), s.code()))
+                let msg = s.message();
+                let msg = msg.strip_prefix(&format!("{url}: ")).unwrap_or(msg);
+                Err(format!("{url}: {msg} ({:?})", s.code()))
             }
         }
     }
@@ -307,7 +324,7 @@ impl Cluster {
                     }
                     ep = ep.tls_config(tls).map_err(|e| Status::invalid_argument(e.to_string()))?;
                 }
-                let c = ep.connect().await.map_err(|e| Status::unavailable(format!("{url}: {e}")))?;
+                let c = ep.connect().await.map_err(|e| Status::unavailable(format!("{url}: {}", with_causes(&e))))?;
                 if let Ok(mut slot) = self.channels[w].lock() {
                     *slot = Some(c.clone());
                 }
