@@ -195,6 +195,7 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
         .seed(a.seed)
         .threads(a.threads)
         .block_size(a.block_size.max(1))
+        .fit_sketch(!a.no_sketch_fit)
         .cache_dir(if a.no_cache {
             None
         } else {

@@ -27,6 +27,7 @@ use crate::progress::{CancelToken, Progress, Stage};
 use crate::stages::feature_placement::{place_features, PlacementSettings};
 use crate::stages::hole_filling::{fill_holes, FillError};
 use crate::stages::sketch::{analyse, SketchFeatures};
+use crate::stages::sketch_fit::{fit_to_sketch, FitStats};
 use crate::stages::user_patches::{user_patches, UserPatch};
 use ridgeline_terrain::grid::{Grid, Heightfield};
 use ridgeline_terrain::library::{common_cell_size, scan_library, ExemplarSpec};
@@ -110,6 +111,9 @@ pub struct SynthConfig {
     /// Memory budget in bytes (`--max-memory`); `None`: the memory available now. A job
     /// estimated to need more is refused before any work (`memory_budget`).
     pub max_memory: Option<u64>,
+    /// Deform the finished terrain so every sketched line is the crest (floor) of its
+    /// cross-section (`stages::sketch_fit`; default on).
+    pub fit_sketch: bool,
 }
 
 impl Default for SynthConfig {
@@ -131,6 +135,7 @@ impl Default for SynthConfig {
             max_batch: 0,
             gpu: GpuMode::Auto,
             max_memory: None,
+            fit_sketch: true,
         }
     }
 }
@@ -216,6 +221,9 @@ pub struct SynthReport {
     /// the coordinator spent choosing targets, cutting seams and merging.
     pub fill_scoring_s: f64,
     pub fill_coordinator_core_s: f64,
+    /// The final fit to the sketch: centre-line cells that did not fit before it,
+    /// cells it moved and by how much at most.
+    pub sketch_fit: FitStats,
     /// Sketch adherence of the result: sampled ridge centre-line points with a
     /// ridge-shaped cross profile at patch/4, and the same for valleys.
     pub ridge_adherence: crate::evaluation::quality::Adherence,
@@ -580,6 +588,25 @@ fn synthesize_in(
         "holes filled"
     );
     report.stage(Stage::HoleFilling, t);
+
+    cancelled(cfg)?;
+    if cfg.fit_sketch {
+        let t = Instant::now();
+        cfg.progress.report(Stage::SketchFit, 0, 1);
+        let _s = tracing::info_span!("stage", name = "sketch_fit").entered();
+        report.sketch_fit = pool.install(|| fit_to_sketch(&mut canvas.heights, &sk, p));
+        let f = &report.sketch_fit;
+        tracing::info!(
+            ridge_cells_off = f.ridge_cells_off,
+            valley_cells_off = f.valley_cells_off,
+            passes = f.passes,
+            cells_moved = f.cells_moved,
+            max_change = f.max_change,
+            "terrain fitted to the sketch"
+        );
+        cfg.progress.report(Stage::SketchFit, 1, 1);
+        report.stage(Stage::SketchFit, t);
+    }
     let d = p as f32 / 4.0;
     let bounds = [&sk.ridges, &sk.valleys];
     report.ridge_adherence = crate::evaluation::quality::adherence(

@@ -21,6 +21,8 @@ pub enum Stage {
     FeaturePlacement,
     /// Featureless patches until no cell is empty; progress counts cells.
     HoleFilling,
+    /// The final deformation that puts crests on ridge lines and floors on valleys.
+    SketchFit,
     /// Realism figures against the sources (when a report is asked for).
     Evaluation,
     /// Writing the outputs.
@@ -29,12 +31,13 @@ pub enum Stage {
 
 impl Stage {
     /// Every stage, in order.
-    pub const ALL: [Stage; 7] = [
+    pub const ALL: [Stage; 8] = [
         Stage::Exemplars,
         Stage::SketchFeatures,
         Stage::UserPatches,
         Stage::FeaturePlacement,
         Stage::HoleFilling,
+        Stage::SketchFit,
         Stage::Evaluation,
         Stage::Write,
     ];
@@ -47,6 +50,7 @@ impl Stage {
             Stage::UserPatches => "user_patches",
             Stage::FeaturePlacement => "feature_placement",
             Stage::HoleFilling => "hole_filling",
+            Stage::SketchFit => "sketch_fit",
             Stage::Evaluation => "evaluation",
             Stage::Write => "write",
         }
@@ -60,6 +64,7 @@ impl Stage {
             Stage::UserPatches => "user patches",
             Stage::FeaturePlacement => "feature placement",
             Stage::HoleFilling => "hole filling",
+            Stage::SketchFit => "sketch fit",
             Stage::Evaluation => "evaluation",
             Stage::Write => "writing",
         }

@@ -284,6 +284,12 @@ impl SessionBuilder {
         self.cfg.keep_features_only = keep;
         self
     }
+    /// Deform the finished terrain so every sketched ridge is the crest of its
+    /// cross-section and every valley its floor (`stages::sketch_fit`; default on).
+    pub fn fit_sketch(mut self, fit: bool) -> Self {
+        self.cfg.fit_sketch = fit;
+        self
+    }
     pub fn progress(mut self, p: Arc<dyn JobProgress>) -> Self {
         self.progress = Some(p);
         self

@@ -5,7 +5,7 @@
 //! the feature-profile cost compares (Crause §6.2.1, figure 6.2).
 
 use crate::feature_extraction::FeatureGraph;
-use crate::grid::Grid;
+use crate::grid::{cubic_weights, Grid};
 use std::collections::VecDeque;
 use std::f32::consts::PI;
 
@@ -280,8 +280,8 @@ pub fn extract_patch(src: &Grid<f32>, cx: usize, cy: usize, size: usize, v: Vari
             return out;
         }
     } else {
-        // a 45° variant well inside the source: the same bilinear arithmetic as
-        // `sample_bilinear`, without its clamps (the four taps always exist) and with
+        // a 45° variant well inside the source: the same Catmull-Rom arithmetic as
+        // `sample_bicubic`, without its clamps (the sixteen taps always exist) and with
         // truncation for floor (coordinates are positive)
         let pos = |i: usize, j: usize| {
             let (sx, sy) = v.inverse(i as f32 - half, j as f32 - half);
@@ -296,11 +296,17 @@ pub fn extract_patch(src: &Grid<f32>, cx: usize, cy: usize, size: usize, v: Vari
                 for i in 0..size {
                     let (px, py) = pos(i, j);
                     let (x0, y0) = (px as usize, py as usize);
-                    let (fx, fy) = (px - x0 as f32, py - y0 as f32);
-                    let k = y0 * w + x0;
-                    let a = d[k] * (1.0 - fx) + d[k + 1] * fx;
-                    let b = d[k + w] * (1.0 - fx) + d[k + w + 1] * fx;
-                    out.push(a * (1.0 - fy) + b * fy);
+                    let (wx, wy) = (cubic_weights(px - x0 as f32), cubic_weights(py - y0 as f32));
+                    let mut acc = 0f32;
+                    for (jj, wyj) in wy.iter().enumerate() {
+                        let row = (y0 + jj - 1) * w + x0 - 1;
+                        let mut r = 0f32;
+                        for (ii, wxi) in wx.iter().enumerate() {
+                            r += wxi * d[row + ii];
+                        }
+                        acc += wyj * r;
+                    }
+                    out.push(acc);
                 }
             }
             return out;
@@ -316,7 +322,7 @@ pub fn extract_patch(src: &Grid<f32>, cx: usize, cy: usize, size: usize, v: Vari
                 let yi = (py.round() as i64).clamp(0, src.height as i64 - 1) as usize;
                 out.push(src.get(xi, yi));
             } else {
-                out.push(src.sample_bilinear(px, py));
+                out.push(src.sample_bicubic(px, py));
             }
         }
     }
@@ -373,7 +379,7 @@ mod tests {
     }
 
     #[test]
-    fn rotated_variants_inside_match_clamped_bilinear_sampling() {
+    fn rotated_variants_inside_match_clamped_bicubic_sampling() {
         let src = Grid::from_vec(120, 110, (0..13200).map(|i| ((i * 7919) % 1013) as f32 * 0.37).collect());
         for v in FEATURE_VARIANTS.iter().filter(|v| !v.is_exact()) {
             for (cx, cy) in [(60usize, 55usize), (47, 50), (3, 3)] {
@@ -381,7 +387,7 @@ mod tests {
                 for j in 0..64 {
                     for i in 0..64 {
                         let (sx, sy) = v.inverse(i as f32 - 32.0, j as f32 - 32.0);
-                        let want = src.sample_bilinear(cx as f32 + sx, cy as f32 + sy);
+                        let want = src.sample_bicubic(cx as f32 + sx, cy as f32 + sy);
                         assert_eq!(got[j * 64 + i].to_bits(), want.to_bits(), "{v:?} at ({cx},{cy}), cell ({i},{j})");
                     }
                 }

@@ -168,6 +168,10 @@ pub struct SynthArgs {
     /// Do not read or write the feature cache.
     #[arg(long)]
     pub no_cache: bool,
+    /// Leave the terrain as patch matching made it: no final fit that puts a crest
+    /// under every ridge line and a floor under every valley line.
+    #[arg(long)]
+    pub no_sketch_fit: bool,
     /// Also write a hillshade preview PNG here.
     #[arg(long)]
     pub preview: Option<PathBuf>,

@@ -2,6 +2,7 @@
 //! terrain follows the sketch (a ridge-shaped cross profile under ridge centre lines,
 //! a valley-shaped one under valley centre lines) and how visible seams are.
 
+use crate::stages::sketch::cross_section;
 use ridgeline_terrain::feature_extraction::{FeatureGraph, FeatureKind};
 use ridgeline_terrain::grid::Heightfield;
 
@@ -23,13 +24,9 @@ impl Adherence {
 }
 
 /// Samples every `stride`-th cell of the centre lines (not within `margin` of the
-/// border) and checks the cross profile at distance `dist`: for a ridge the centre
-/// must be higher than both sides, for a valley lower. The direction of the line at
-/// a cell is the principal axis of the line cells within 4 cells of it. Where another
-/// sketched line (any of `bounds`) crosses the profile closer than `dist`, that side
-/// is sampled halfway to it: between two ridges drawn 18 cells apart the question is
-/// whether there is a dip between them, not whether a ridge is higher than its
-/// neighbour ridge.
+/// border) and checks the cross profile at distance `dist` (or halfway to a closer
+/// line of `bounds`; [`cross_section`]): for a ridge the centre must be higher than
+/// both sides, for a valley lower.
 pub fn adherence(
     h: &Heightfield,
     g: &FeatureGraph,
@@ -40,9 +37,8 @@ pub fn adherence(
     bounds: &[&FeatureGraph],
 ) -> Adherence {
     let mut a = Adherence::default();
-    let pix: Vec<u32> = g.pixels().collect();
     let (w, hh) = (g.width, g.height);
-    for (n, &p) in pix.iter().enumerate() {
+    for (n, p) in g.pixels().enumerate() {
         if n % stride.max(1) != 0 {
             continue;
         }
@@ -50,38 +46,13 @@ pub fn adherence(
         if x < margin || y < margin || x + margin >= w || y + margin >= hh {
             continue;
         }
-        // principal direction of nearby line cells
-        let (mut sxx, mut sxy, mut syy) = (0f32, 0f32, 0f32);
-        for yy in y.saturating_sub(4)..(y + 5).min(hh) {
-            for xx in x.saturating_sub(4)..(x + 5).min(w) {
-                if g.contains((yy * w + xx) as u32) {
-                    let (dx, dy) = (xx as f32 - x as f32, yy as f32 - y as f32);
-                    sxx += dx * dx;
-                    sxy += dx * dy;
-                    syy += dy * dy;
-                }
-            }
-        }
-        let theta = 0.5 * (2.0 * sxy).atan2(sxx - syy);
-        let (nx, ny) = (-theta.sin(), theta.cos());
-        // a sketched line within one cell of (px, py)
-        let near_line = |px: i64, py: i64| {
-            let (x0, y0) = (px.max(1) as usize - 1, py.max(1) as usize - 1);
-            (y0..(py + 2).clamp(0, hh as i64) as usize)
-                .flat_map(|yy| (x0..(px + 2).clamp(0, w as i64) as usize).map(move |xx| (yy * w + xx) as u32))
-                .any(|i| bounds.iter().any(|b| b.contains(i)))
-        };
-        // how far out to sample on one side: `dist`, or halfway to a closer line
-        let reach = |sign: f32| {
-            (4..dist.ceil() as usize)
-                .map(|r| r as f32)
-                .find(|r| near_line((x as f32 + sign * nx * r).round() as i64, (y as f32 + sign * ny * r).round() as i64))
-                .map_or(dist, |r| ((r - 1.0) / 2.0).max(2.0))
-        };
-        let (d1, d2) = (reach(1.0), reach(-1.0));
+        let cs = cross_section(g, p, dist, bounds);
         let c = h.sample_bilinear(x as f32, y as f32);
-        let s1 = h.sample_bilinear(x as f32 + nx * d1, y as f32 + ny * d1);
-        let s2 = h.sample_bilinear(x as f32 - nx * d2, y as f32 - ny * d2);
+        let side = |s: usize| {
+            let (sx, sy) = cs.at(s, cs.reach[s]);
+            h.sample_bilinear(sx, sy)
+        };
+        let (s1, s2) = (side(0), side(1));
         a.sampled += 1;
         let ok = match kind {
             FeatureKind::Ridge => c > s1 && c > s2,

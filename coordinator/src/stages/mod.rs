@@ -1,6 +1,6 @@
 //! The pipeline's stages, in the order a job runs them (see [`crate::pipeline`]):
 //! [`sketch`] analysis, [`user_patches`], [`feature_placement`] (rounds 1 and 2, with
-//! [`selection`]), and [`hole_filling`] (with its [`base_surface`]). Round 2 and hole
+//! [`selection`]), [`hole_filling`] (with its [`base_surface`]) and [`sketch_fit`]. Round 2 and hole
 //! filling share [`window_scoring`] (open a window, rank, cut, merge) and [`merge`]
 //! (graph-cut seam, Shepard correction, Poisson solve).
 
@@ -10,5 +10,6 @@ pub mod hole_filling;
 pub mod merge;
 pub mod selection;
 pub mod sketch;
+pub mod sketch_fit;
 pub mod user_patches;
 pub mod window_scoring;

@@ -1,0 +1,311 @@
+//! Sketch fit: the last stage, a smooth deformation that makes every sketched ridge
+//! the crest of the terrain's cross-section and every sketched valley its floor
+//! (Tasse et al. 2012, §3 and figure 1f: the synthesised terrain "no longer perfectly
+//! fits the sketched curves, and so it is deformed in a final phase to match"). Patch
+//! matching puts a real ridge near each ridge stroke, but not always on it: where two
+//! patches disagree, where a hole fill met the line, or where ridges are drawn closer
+//! together than any exemplar has them, the crest ends up a few cells off or a
+//! neighbouring slope rises higher.
+//!
+//! What "fits" means is the sketch's [`CrossSection`] (one home, shared with the
+//! adherence figure): at every centre-line cell, the terrain at the cell must rise
+//! above (ridge) or sink below (valley) the terrain at a quarter, a half, three
+//! quarters and all of the reach on both sides (patch/2, or halfway to a closer
+//! sketched line), by a small margin that grows with distance
+//! ([`MARGIN_SLOPES`] of the terrain's median slope per cell).
+//!
+//! The deformation, pass by pass (at most [`PASSES`]; most cells need none):
+//! 1. each centre-line cell's deficit: the amplitude a bump of the cell's profile
+//!    needs to meet every condition;
+//! 2. amplitudes spread along the line by a tapered maximum over patch/2 cells (a
+//!    raised cosine), so the correction swells and fades along the crest instead of
+//!    raising beads;
+//! 3. each cell with an amplitude stamps its cross profile `A (1 − r/reach)²` (a
+//!    crease on the line, like a real crest or thalweg, fading with zero slope at
+//!    the reach, so no step shows where it ends); the stamps combine by maximum, so
+//!    overlapping ones along a line never add up.
+//!
+//! Reaches stop halfway to the next sketched line, so the bumps of neighbouring lines
+//! do not overlap. Cells far from every line, and lines that already fit, are left
+//! exactly as they were. Every step maps over cells and combines by maximum, so the
+//! result does not depend on the thread count.
+
+use crate::stages::sketch::{cross_section, CrossSection, SketchFeatures};
+use rayon::prelude::*;
+use ridgeline_terrain::feature_extraction::FeatureGraph;
+use ridgeline_terrain::grid::{Grid, Heightfield};
+
+/// At most this many passes (each re-measures after the previous deformation).
+pub const PASSES: usize = 3;
+
+/// The margin by which a crest must stand out at distance r: this many times the
+/// terrain's median slope (height per cell) times r.
+pub const MARGIN_SLOPES: f32 = 0.15;
+
+/// Fractions of the reach at which the cross-section is checked.
+const CHECKS: [f32; 4] = [0.25, 0.5, 0.75, 1.0];
+
+/// What the stage did.
+#[derive(Debug, Clone, Copy, Default, serde::Serialize)]
+pub struct FitStats {
+    /// Passes that found something to correct.
+    pub passes: usize,
+    /// Centre-line cells that did not fit before the first pass.
+    pub ridge_cells_off: usize,
+    pub valley_cells_off: usize,
+    /// Cells whose height changed.
+    pub cells_moved: usize,
+    /// Largest change of a cell (height units).
+    pub max_change: f32,
+}
+
+/// The cross profile of a stamp at `t` = distance / reach: 1 on the line, 0 with zero
+/// slope at the reach.
+fn profile(t: f32) -> f32 {
+    let u = (1.0 - t).max(0.0);
+    u * u
+}
+
+/// Raised cosine over [0, 1]: the taper of amplitudes along a line.
+fn taper(t: f32) -> f32 {
+    if t >= 1.0 {
+        0.0
+    } else {
+        0.5 * (1.0 + (std::f32::consts::PI * t).cos())
+    }
+}
+
+/// Median gradient magnitude (height per cell) over every 4th cell in each axis.
+fn median_slope(h: &Heightfield) -> f32 {
+    let mut g: Vec<f32> = (1..h.height.saturating_sub(1))
+        .step_by(4)
+        .flat_map(|y| {
+            (1..h.width.saturating_sub(1)).step_by(4).map(move |x| {
+                let gx = 0.5 * (h.get(x + 1, y) - h.get(x - 1, y));
+                let gy = 0.5 * (h.get(x, y + 1) - h.get(x, y - 1));
+                gx.hypot(gy)
+            })
+        })
+        .collect();
+    if g.is_empty() {
+        return 0.0;
+    }
+    let mid = g.len() / 2;
+    *g.select_nth_unstable_by(mid, f32::total_cmp).1
+}
+
+/// The amplitude a stamp at `cs` needs so that the cell stands out (`sign` +1 for a
+/// ridge, −1 for a valley) at every checked distance, or 0 if it already does.
+fn deficit(h: &Heightfield, cs: &CrossSection, sign: f32, slope: f32) -> f32 {
+    let c = h.get(cs.x, cs.y);
+    let mut need = 0f32;
+    for side in 0..2 {
+        for t in CHECKS {
+            let r = t * cs.reach[side];
+            if r < 1.0 {
+                continue;
+            }
+            let (sx, sy) = cs.at(side, r);
+            let s = h.sample_bilinear(sx, sy);
+            let short = MARGIN_SLOPES * slope * r - sign * (c - s);
+            if short > 0.0 {
+                // the stamp lifts the side by profile(t) of what it lifts the centre
+                need = need.max(short / (1.0 - profile(t)).max(0.05));
+            }
+        }
+    }
+    need
+}
+
+/// Indices of `items` bucketed by a square grid of `cell` cells.
+struct Buckets {
+    cell: usize,
+    cols: usize,
+    rows: usize,
+    lists: Vec<Vec<u32>>,
+}
+
+impl Buckets {
+    fn new(width: usize, height: usize, cell: usize, at: impl Iterator<Item = (usize, usize)>) -> Buckets {
+        let cell = cell.max(1);
+        let (cols, rows) = (width.div_ceil(cell), height.div_ceil(cell));
+        let mut lists = vec![Vec::new(); cols * rows];
+        for (i, (x, y)) in at.enumerate() {
+            lists[(y / cell) * cols + x / cell].push(i as u32);
+        }
+        Buckets { cell, cols, rows, lists }
+    }
+
+    /// Every index in the buckets that a square of `radius` around (x, y) touches.
+    fn near(&self, x: usize, y: usize, radius: usize) -> impl Iterator<Item = u32> + '_ {
+        let (bx0, by0) = (x.saturating_sub(radius) / self.cell, y.saturating_sub(radius) / self.cell);
+        let (bx1, by1) = (((x + radius) / self.cell).min(self.cols - 1), ((y + radius) / self.cell).min(self.rows - 1));
+        (by0..=by1).flat_map(move |by| (bx0..=bx1).flat_map(move |bx| self.lists[by * self.cols + bx].iter().copied()))
+    }
+}
+
+/// One kind's correction field for one pass (positive amplitudes), and how many of
+/// its line cells did not fit.
+fn correction(h: &Heightfield, sign: f32, sections: &[CrossSection], slope: f32, along: f32) -> (Grid<f32>, usize) {
+    let (w, hh) = (h.width, h.height);
+    let need: Vec<f32> = sections.par_iter().map(|cs| deficit(h, cs, sign, slope)).collect();
+    let off = need.iter().filter(|&&a| a > 0.0).count();
+    let mut field = Grid::new(w, hh, 0f32);
+    if off == 0 {
+        return (field, 0);
+    }
+    // 2. spread along the line: A'(p) = max over deficient q within `along` of A(q) taper(|pq| / along)
+    let short: Vec<usize> = (0..sections.len()).filter(|&i| need[i] > 0.0).collect();
+    let r_along = along.ceil() as usize;
+    let buckets = Buckets::new(w, hh, r_along, short.iter().map(|&i| (sections[i].x, sections[i].y)));
+    let amp: Vec<f32> = sections
+        .par_iter()
+        .map(|cs| {
+            buckets
+                .near(cs.x, cs.y, r_along)
+                .map(|k| {
+                    let q = &sections[short[k as usize]];
+                    let d = (cs.x as f32 - q.x as f32).hypot(cs.y as f32 - q.y as f32);
+                    need[short[k as usize]] * taper(d / along)
+                })
+                .fold(0f32, f32::max)
+        })
+        .collect();
+    // 3. stamp cross profiles, combined by maximum, row band by row band
+    const BAND: usize = 16;
+    let mut per_band: Vec<Vec<usize>> = vec![Vec::new(); hh.div_ceil(BAND)];
+    for (i, cs) in sections.iter().enumerate().filter(|(i, _)| amp[*i] > 0.0) {
+        let r = cs.reach[0].max(cs.reach[1]).ceil() as usize;
+        let (b0, b1) = (cs.y.saturating_sub(r) / BAND, (cs.y + r).min(hh - 1) / BAND);
+        per_band[b0..=b1].iter_mut().for_each(|l| l.push(i));
+    }
+    field.data.par_chunks_mut(BAND * w).zip(per_band).enumerate().for_each(|(b, (rows, list))| {
+        let (y0, y1) = (b * BAND, b * BAND + rows.len() / w);
+        for i in list {
+            let (cs, a) = (&sections[i], amp[i]);
+            let r = cs.reach[0].max(cs.reach[1]).ceil() as usize;
+            for y in cs.y.saturating_sub(r).max(y0)..(cs.y + r + 1).min(y1) {
+                for x in cs.x.saturating_sub(r)..(cs.x + r + 1).min(w) {
+                    let (dx, dy) = (x as f32 - cs.x as f32, y as f32 - cs.y as f32);
+                    let side = if dx * cs.normal.0 + dy * cs.normal.1 >= 0.0 { 0 } else { 1 };
+                    let t = dx.hypot(dy) / cs.reach[side];
+                    if t < 1.0 {
+                        let cell = &mut rows[(y - y0) * w + x];
+                        *cell = cell.max(a * profile(t));
+                    }
+                }
+            }
+        }
+    });
+    (field, off)
+}
+
+/// Deforms `h` so that it fits the sketch's lines (see the module header); `patch` is
+/// the job's patch size (the cross-sections reach patch/2).
+pub fn fit_to_sketch(h: &mut Heightfield, sk: &SketchFeatures, patch: usize) -> FitStats {
+    let mut stats = FitStats::default();
+    let reach = patch as f32 / 2.0;
+    let bounds = [&sk.ridges, &sk.valleys];
+    let sections = |g: &FeatureGraph| -> Vec<CrossSection> {
+        let pix: Vec<u32> = g.pixels().collect();
+        pix.par_iter().map(|&p| cross_section(g, p, reach, &bounds)).collect()
+    };
+    let (ridges, valleys) = (sections(&sk.ridges), sections(&sk.valleys));
+    if ridges.is_empty() && valleys.is_empty() {
+        return stats;
+    }
+    let slope = median_slope(h);
+    let before = h.clone();
+    for pass in 0..PASSES {
+        let (up, r_off) = correction(h, 1.0, &ridges, slope, reach);
+        let (down, v_off) = correction(h, -1.0, &valleys, slope, reach);
+        if pass == 0 {
+            stats.ridge_cells_off = r_off;
+            stats.valley_cells_off = v_off;
+        }
+        if r_off + v_off == 0 {
+            break;
+        }
+        stats.passes += 1;
+        h.data.par_iter_mut().zip(&up.data).zip(&down.data).for_each(|((v, u), d)| *v += u - d);
+    }
+    for (a, b) in h.data.iter().zip(&before.data) {
+        if a != b {
+            stats.cells_moved += 1;
+            stats.max_change = stats.max_change.max((a - b).abs());
+        }
+    }
+    stats
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::stages::sketch::analyse;
+    use ridgeline_terrain::feature_extraction::FeatureKind;
+
+    /// A 160² sketch with a ridge stroke along y = 60 and a valley stroke along
+    /// y = 110 (x from 20 to 140), 3 cells wide.
+    fn sketch() -> SketchFeatures {
+        let mut s = Grid::new(160, 160, 128u8);
+        for x in 20..140 {
+            for dy in 0..3 {
+                s.set(x, 59 + dy, 255);
+                s.set(x, 109 + dy, 0);
+            }
+        }
+        analyse(&s, 64)
+    }
+
+    fn fits(h: &Heightfield, sk: &SketchFeatures) -> (f64, f64) {
+        let b = [&sk.ridges, &sk.valleys];
+        let r = crate::evaluation::quality::adherence(h, &sk.ridges, FeatureKind::Ridge, 32.0, 1, 0, &b);
+        let v = crate::evaluation::quality::adherence(h, &sk.valleys, FeatureKind::Valley, 32.0, 1, 0, &b);
+        (r.fraction(), v.fraction())
+    }
+
+    #[test]
+    fn a_tilted_plane_gets_a_crest_on_the_ridge_and_a_floor_in_the_valley() {
+        let sk = sketch();
+        // rising towards +y with ripples: neither line is a crest or a floor
+        let mut h = Grid::from_vec(
+            160,
+            160,
+            (0..160 * 160).map(|i| (i / 160) as f32 * 10.0 + ((i % 160) as f32 * 0.7).sin() * 3.0).collect(),
+        );
+        let before = h.clone();
+        assert!(fits(&h, &sk).0 < 0.1 && fits(&h, &sk).1 < 0.1);
+        let stats = fit_to_sketch(&mut h, &sk, 64);
+        assert_eq!(fits(&h, &sk), (1.0, 1.0), "{stats:?}");
+        assert!(stats.ridge_cells_off > 100 && stats.valley_cells_off > 100, "{stats:?}");
+        // cells beyond every line's reach are left exactly as they were
+        for y in [0usize, 20, 159] {
+            for x in 0..160 {
+                assert_eq!(h.get(x, y).to_bits(), before.get(x, y).to_bits(), "({x}, {y}) moved");
+            }
+        }
+        // a smooth correction: no step between neighbouring cells beyond the plane's slope
+        // and the correction's own crease
+        let off: Vec<f32> = h.data.iter().zip(&before.data).map(|(a, b)| a - b).collect();
+        for y in 1..159 {
+            for x in 1..159 {
+                let o = off[y * 160 + x];
+                let m = [off[y * 160 + x - 1], off[y * 160 + x + 1], off[(y - 1) * 160 + x], off[(y + 1) * 160 + x]];
+                assert!(m.iter().all(|n| (n - o).abs() <= stats.max_change * 0.25), "step at ({x}, {y})");
+            }
+        }
+    }
+
+    #[test]
+    fn a_terrain_that_already_fits_is_left_alone() {
+        let sk = sketch();
+        // a crest along y = 60 and a floor along y = 110
+        let wave = |i: usize| 500.0 * (std::f32::consts::PI * ((i / 160) as f32 - 60.0) / 50.0).cos();
+        let mut h = Grid::from_vec(160, 160, (0..160 * 160).map(wave).collect());
+        let before = h.clone();
+        assert_eq!(fits(&h, &sk), (1.0, 1.0));
+        let stats = fit_to_sketch(&mut h, &sk, 64);
+        assert_eq!((stats.passes, stats.cells_moved), (0, 0), "{stats:?}");
+        assert!(h.data.iter().zip(&before.data).all(|(a, b)| a.to_bits() == b.to_bits()));
+    }
+}
