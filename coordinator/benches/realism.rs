@@ -7,12 +7,15 @@
 //!
 //! Sketches (512 x 512): curves (sinusoidal ridges 3 px, valleys 9 px), junctions
 //! (a Y of ridges, a T of valleys), parallel ridges 18 px apart (2 px), strokes
-//! touching the border (15 px), thin 1-px strokes, and a dense mix. Libraries: the
-//! even-numbered DEMs, the odd-numbered ones, and a small one of four. Beside each
+//! touching the border (15 px), thin 1-px strokes, a dense mix, and a ring ridge with
+//! a valley draining out through it. Libraries: the even-numbered DEMs, the
+//! odd-numbered ones, a small one of four, and one of mixed cell sizes (60, 90 and
+//! 180 m) with small exemplars (160 x 160 and 128 x 200 cells). Beside each
 //! seam score, `(real)` is what real terrain scores when cut where the job cut: the
 //! median over the shared DEMs of a crop's seam score under the job's placement map.
 //!
 //! `cargo bench -p ridgeline --bench realism` (RIDGELINE_BENCH_SEED, default 0;
+//! RIDGELINE_BENCH_NO_FIT=1 leaves out the final sketch fit, to see what it changes;
 //! RIDGELINE_BENCH_KEEP=DIR keeps each terrain's 1:1 hillshade there, to look at, with
 //! its heights (`.f32`, little-endian rows) and placement of every cell (`.prov.u32`)).
 
@@ -121,7 +124,58 @@ fn sketches() -> Vec<(&'static str, Grid<u8>)> {
                 None
             }),
         ),
+        (
+            "ring",
+            sketch(|x, y| {
+                let r = (x - 256.0).hypot(y - 240.0);
+                if (r - 150.0).abs() < 3.0 {
+                    RIDGE
+                } else if seg(x, y, (256.0, 240.0), (500.0, 470.0)) < 2.5 && r < 140.0
+                    || seg(x, y, (380.0, 357.0), (511.0, 480.0)) < 2.5 && r > 160.0
+                {
+                    VALLEY
+                } else {
+                    None
+                }
+            }),
+        ),
     ]
+}
+
+/// A library of mixed cell sizes and small exemplars: two DEMs as they are (90 m),
+/// one averaged down to 180 m, one resampled up to 60 m, and crops of 160 x 160 and
+/// 128 x 200 cells of two more, written as 16-bit PNGs with their cell sizes in the
+/// manifest. The job's output is at the most common size (90 m), so the others are
+/// resampled on loading.
+fn mixed_library(dems: &Path, dir: &Path) -> PathBuf {
+    let _ = std::fs::remove_dir_all(dir);
+    std::fs::create_dir_all(dir).expect("library dir");
+    let csv = std::fs::read_to_string(dems.join("dems.csv")).expect("dems.csv");
+    let rows: Vec<Vec<String>> = csv.lines().skip(1).map(|l| l.split(',').map(str::to_string).collect()).collect();
+    let read = |i: usize| image::open(dems.join(&rows[i][0])).expect("dem").into_luma16();
+    let mut out = vec!["file,cell_size_m,vertical_unit".to_string()];
+    let mut write = |name: &str, img: image::ImageBuffer<image::Luma<u16>, Vec<u16>>, cell: f32, unit: &str| {
+        img.save(dir.join(name)).expect("write exemplar");
+        out.push(format!("{name},{cell},{unit}"));
+    };
+    let resize = |img: &image::ImageBuffer<image::Luma<u16>, Vec<u16>>, f: f32| {
+        let (w, h) = ((img.width() as f32 * f) as u32, (img.height() as f32 * f) as u32);
+        let filter = if f < 1.0 { image::imageops::FilterType::Triangle } else { image::imageops::FilterType::CatmullRom };
+        image::imageops::resize(img, w, h, filter)
+    };
+    for (k, &i) in [2usize, 5, 8, 11, 12, 15].iter().enumerate() {
+        let (file, unit) = (&rows[i][0], rows[i][4].as_str());
+        let img = read(i);
+        match k {
+            1 => write(&format!("half-{file}"), resize(&img, 0.5), 180.0, unit),
+            2 => write(&format!("up-{file}"), resize(&img, 1.5), 60.0, unit),
+            3 => write(&format!("small-{file}"), image::imageops::crop_imm(&img, 200, 240, 160, 160).to_image(), 90.0, unit),
+            4 => write(&format!("small-{file}"), image::imageops::crop_imm(&img, 400, 300, 128, 200).to_image(), 90.0, unit),
+            _ => write(file, img, 90.0, unit),
+        }
+    }
+    std::fs::write(dir.join("dems.csv"), out.join("\n") + "\n").expect("csv");
+    dir.to_path_buf()
 }
 
 /// A library of the DEMs whose index `keep` accepts, as symlinks and a dems.csv.
@@ -186,9 +240,10 @@ fn main() {
         ("even", library(&dems, &dir.join("lib-even"), |i| i % 2 == 0)),
         ("odd", library(&dems, &dir.join("lib-odd"), |i| i % 2 == 1)),
         ("four", library(&dems, &dir.join("lib-four"), |i| [1, 6, 9, 14].contains(&i))),
+        ("mixed", mixed_library(&dems, &dir.join("lib-mixed"))),
     ];
     let cache = dir.join("cache");
-    println!("ridgeline realism benchmark: 6 drawn sketches x held-out libraries, seed {seed}");
+    println!("ridgeline realism benchmark: 7 drawn sketches x held-out libraries, seed {seed}");
     println!(
         "{:<22} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6}",
         "sketch / library", "ridge", "valley", "landf", "slope", "rough", "seam", "(real)", "repet", "s"
@@ -196,10 +251,12 @@ fn main() {
     let all = evaluation::load_sources(&dems, Some(90.0), None).expect("dems");
     let crops = centre_crops(&all);
     for (k, (name, sk)) in sketches().into_iter().enumerate() {
-        let (lname, lib) = &libs[k % libs.len()];
+        // the first six cycle through the held-out libraries; the ring is on the mixed one
+        let (lname, lib) = &libs[if k < 6 { k % 3 } else { 3 }];
         let path = dir.join(format!("{name}.png"));
         image::GrayImage::from_raw(SIDE as u32, SIDE as u32, sk.data.clone()).expect("sketch").save(&path).expect("save");
-        let cfg = SynthConfig { cache_dir: Some(cache.clone()), seed, ..Default::default() };
+        let fit_sketch = std::env::var_os("RIDGELINE_BENCH_NO_FIT").is_none();
+        let cfg = SynthConfig { cache_dir: Some(cache.clone()), seed, fit_sketch, ..Default::default() };
         let t = Instant::now();
         let out = run_job(&path, lib, &cfg).expect("synthesis");
         let seconds = t.elapsed().as_secs_f64();

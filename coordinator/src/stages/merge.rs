@@ -28,6 +28,11 @@
 //!   stays inside the window, so the margins that keep parallel tiles apart still
 //!   hold; moved cells keep their provenance.
 //!
+//! The fade runs on both sides: old cells of the relaxed band within [`SEAM_FADE`] of
+//! the seam take a quarter as much of the new patch's gradient as the new side
+//! takes of the old ([`OLD_SIDE_FADE`]), so a seam along a hole's edge, where the new
+//! side has no old terrain to fade from, is softened from the old side.
+//!
 //! Choices the paper leaves open: the Shepard exponent is 2 and its radius d_φ is
 //! patch/4 (Tasse's value); the new patch is first shifted by its mean offset over the
 //! overlap, which the gradient-domain merge would absorb anyway but which makes the
@@ -47,6 +52,10 @@ pub const POISSON_TOLERANCE: f64 = 1e-5;
 /// across a few cells instead of at one edge. Where the old terrain is empty there is
 /// nothing to fade from.
 pub const SEAM_FADE: usize = 2;
+
+/// How much of the new patch's gradient the old side's cells next to the seam take
+/// (times the same linear fall-off as on the new side).
+const OLD_SIDE_FADE: f32 = 0.25;
 
 /// The optimal seam between the output's `old` values and a `new` patch over a
 /// window, after removing the patch's mean offset over the overlap (which the
@@ -403,9 +412,16 @@ impl Canvas {
                         continue;
                     }
                     if !(is_new[e] || is_new[q]) {
-                        // both on the old side (one of them relaxed): the old gradient
+                        // both on the old side (one of them relaxed): the old gradient,
+                        // faded towards the new patch's within SEAM_FADE of the seam
                         let ga = aa[q] - aa[e];
-                        target[e] = if ga.is_nan() { 0.0 } else { ga };
+                        let mut t = if ga.is_nan() { 0.0 } else { ga };
+                        let (d, gb) = (band[e].min(band[q]) as usize, bb[q] - bb[e]);
+                        if (1..=SEAM_FADE).contains(&d) && !ga.is_nan() && !gb.is_nan() {
+                            let wgt = OLD_SIDE_FADE * (1.0 - d as f32 / (SEAM_FADE + 1) as f32);
+                            t = (1.0 - wgt) * t + wgt * gb;
+                        }
+                        target[e] = t;
                         continue;
                     }
                     let gb = if !bb[e].is_nan() && !bb[q].is_nan() {
