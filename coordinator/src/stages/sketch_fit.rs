@@ -183,10 +183,14 @@ fn correction(h: &Heightfield, sign: f32, sections: &[CrossSection], slope: f32,
         let (y0, y1) = (b * BAND, b * BAND + rows.len() / w);
         for i in list {
             let (cs, a) = (&sections[i], amp[i]);
-            let r = cs.reach[0].max(cs.reach[1]).ceil() as usize;
+            let reach = cs.reach[0].max(cs.reach[1]);
+            let r = reach.ceil() as usize;
             for y in cs.y.saturating_sub(r).max(y0)..(cs.y + r + 1).min(y1) {
-                for x in cs.x.saturating_sub(r)..(cs.x + r + 1).min(w) {
-                    let (dx, dy) = (x as f32 - cs.x as f32, y as f32 - cs.y as f32);
+                let dy = y as f32 - cs.y as f32;
+                // the row's span inside the larger reach's circle
+                let span = (reach * reach - dy * dy).max(0.0).sqrt() as usize;
+                for x in cs.x.saturating_sub(span)..(cs.x + span + 1).min(w) {
+                    let dx = x as f32 - cs.x as f32;
                     let side = if dx * cs.normal.0 + dy * cs.normal.1 >= 0.0 { 0 } else { 1 };
                     let t = dx.hypot(dy) / cs.reach[side];
                     if t < 1.0 {
