@@ -30,7 +30,7 @@ impl JobProgress for Bars {
         }
         let Ok(mut cur) = self.0.lock() else { return };
         if cur.as_ref().map(|c| c.0) != Some(stage) {
-            if let Some((_, pb)) = cur.take() {
+            if let Some((_, pb)) = cur.take().filter(|(_, pb)| !pb.is_finished()) {
                 pb.finish();
             }
             let pb = indicatif::ProgressBar::new(total.max(1));
@@ -43,6 +43,11 @@ impl JobProgress for Bars {
             *cur = Some((stage, pb));
         }
         if let Some((_, pb)) = cur.as_ref() {
+            if pb.is_finished() {
+                // a stage reports its end more than once (the last wave and the stage
+                // itself): draw the finished bar once
+                return;
+            }
             pb.set_length(total.max(1));
             pb.set_position(done);
             if done >= total {
