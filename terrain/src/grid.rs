@@ -84,9 +84,8 @@ impl Grid<f32> {
 
     /// Catmull-Rom bicubic sample at continuous coordinates (pixel centres at
     /// integers), taps clamped to the border. Where a rotation or an upsampling has to
-    /// fall between cells it keeps the fine detail that bilinear weights average
-    /// away (a bilinear sample halfway between cells halves the power at 2-cell
-    /// wavelengths; the cubic keeps most of it).
+    /// fall between cells it keeps more of the fine relief (wavelengths of 3 to 6
+    /// cells) than bilinear weights, which average neighbouring cells.
     pub fn sample_bicubic(&self, x: f32, y: f32) -> f32 {
         let xc = x.clamp(0.0, (self.width - 1) as f32);
         let yc = y.clamp(0.0, (self.height - 1) as f32);

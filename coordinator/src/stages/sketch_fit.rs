@@ -35,7 +35,7 @@
 use crate::stages::sketch::{cross_section, CrossSection, SketchFeatures};
 use rayon::prelude::*;
 use ridgeline_terrain::feature_extraction::FeatureGraph;
-use ridgeline_terrain::grid::{Grid, Heightfield};
+use ridgeline_terrain::grid::Heightfield;
 
 /// At most this many passes (each re-measures after the previous deformation).
 pub const PASSES: usize = 3;
@@ -57,7 +57,7 @@ pub struct FitStats {
     pub valley_cells_off: usize,
     /// Cells whose height changed.
     pub cells_moved: usize,
-    /// Largest change of a cell (height units).
+    /// Largest change of a cell in one pass (height units).
     pub max_change: f32,
 }
 
@@ -146,15 +146,25 @@ impl Buckets {
     }
 }
 
-/// One kind's correction field for one pass (positive amplitudes), and how many of
-/// its line cells did not fit.
-fn correction(h: &Heightfield, sign: f32, sections: &[CrossSection], slope: f32, along: f32) -> (Grid<f32>, usize) {
+/// Rows per band when stamps are drawn and applied.
+const BAND: usize = 16;
+
+/// One kind's stamps for one pass: the amplitude of every centre-line cell (0 where it
+/// stamps nothing) and, per band of rows, the cells whose stamps reach into it.
+struct Stamps<'a> {
+    sections: &'a [CrossSection],
+    amp: Vec<f32>,
+    per_band: Vec<Vec<usize>>,
+}
+
+/// One kind's stamps for one pass, and how many of its line cells did not fit.
+fn stamps<'a>(h: &Heightfield, sign: f32, sections: &'a [CrossSection], slope: f32, along: f32) -> (Stamps<'a>, usize) {
     let (w, hh) = (h.width, h.height);
     let need: Vec<f32> = sections.par_iter().map(|cs| deficit(h, cs, sign, slope)).collect();
     let off = need.iter().filter(|&&a| a > 0.0).count();
-    let mut field = Grid::new(w, hh, 0f32);
+    let mut per_band: Vec<Vec<usize>> = vec![Vec::new(); hh.div_ceil(BAND)];
     if off == 0 {
-        return (field, 0);
+        return (Stamps { sections, amp: need, per_band }, 0);
     }
     // 2. spread along the line: A'(p) = max over deficient q within `along` of A(q) taper(|pq| / along)
     let short: Vec<usize> = (0..sections.len()).filter(|&i| need[i] > 0.0).collect();
@@ -173,18 +183,21 @@ fn correction(h: &Heightfield, sign: f32, sections: &[CrossSection], slope: f32,
                 .fold(0f32, f32::max)
         })
         .collect();
-    // 3. stamp cross profiles, combined by maximum, row band by row band
-    const BAND: usize = 16;
-    let mut per_band: Vec<Vec<usize>> = vec![Vec::new(); hh.div_ceil(BAND)];
     for (i, cs) in sections.iter().enumerate().filter(|(i, _)| amp[*i] > 0.0) {
         let r = cs.reach[0].max(cs.reach[1]).ceil() as usize;
         let (b0, b1) = (cs.y.saturating_sub(r) / BAND, (cs.y + r).min(hh - 1) / BAND);
         per_band[b0..=b1].iter_mut().for_each(|l| l.push(i));
     }
-    field.data.par_chunks_mut(BAND * w).zip(per_band).enumerate().for_each(|(b, (rows, list))| {
-        let (y0, y1) = (b * BAND, b * BAND + rows.len() / w);
-        for i in list {
-            let (cs, a) = (&sections[i], amp[i]);
+    (Stamps { sections, amp, per_band }, off)
+}
+
+impl Stamps<'_> {
+    /// Step 3: draws the cross profiles reaching into band `b` (rows from `y0`,
+    /// `rows.len() / w` of them), combined by maximum.
+    fn draw(&self, b: usize, y0: usize, w: usize, rows: &mut [f32]) {
+        let y1 = y0 + rows.len() / w;
+        for &i in &self.per_band[b] {
+            let (cs, a) = (&self.sections[i], self.amp[i]);
             let reach = cs.reach[0].max(cs.reach[1]);
             let r = reach.ceil() as usize;
             for y in cs.y.saturating_sub(r).max(y0)..(cs.y + r + 1).min(y1) {
@@ -202,15 +215,16 @@ fn correction(h: &Heightfield, sign: f32, sections: &[CrossSection], slope: f32,
                 }
             }
         }
-    });
-    (field, off)
+    }
 }
 
 /// Deforms `h` so that it fits the sketch's lines (see the module header); `patch` is
-/// the job's patch size (the cross-sections reach patch/2).
+/// the job's patch size (the cross-sections reach patch/2). Each pass draws and applies
+/// its stamps band by band, so the stage holds two bands of corrections and a byte
+/// per cell (which cells moved) besides the terrain.
 pub fn fit_to_sketch(h: &mut Heightfield, sk: &SketchFeatures, patch: usize) -> FitStats {
     let mut stats = FitStats::default();
-    let reach = patch as f32 / 2.0;
+    let (reach, along) = (patch as f32 / 2.0, patch as f32 / 4.0);
     let bounds = [&sk.ridges, &sk.valleys];
     let sections = |g: &FeatureGraph| -> Vec<CrossSection> {
         let pix: Vec<u32> = g.pixels().collect();
@@ -221,11 +235,11 @@ pub fn fit_to_sketch(h: &mut Heightfield, sk: &SketchFeatures, patch: usize) -> 
         return stats;
     }
     let slope = median_slope(h);
-    let before = h.clone();
+    let w = h.width;
+    let mut moved: Vec<u8> = Vec::new();
     for pass in 0..PASSES {
-        let along = patch as f32 / 4.0;
-        let (up, r_off) = correction(h, 1.0, &ridges, slope, along);
-        let (down, v_off) = correction(h, -1.0, &valleys, slope, along);
+        let (up, r_off) = stamps(h, 1.0, &ridges, slope, along);
+        let (down, v_off) = stamps(h, -1.0, &valleys, slope, along);
         if pass == 0 {
             stats.ridge_cells_off = r_off;
             stats.valley_cells_off = v_off;
@@ -234,14 +248,34 @@ pub fn fit_to_sketch(h: &mut Heightfield, sk: &SketchFeatures, patch: usize) -> 
             break;
         }
         stats.passes += 1;
-        h.data.par_iter_mut().zip(&up.data).zip(&down.data).for_each(|((v, u), d)| *v += u - d);
+        moved.resize(h.data.len(), 0);
+        let band_max: Vec<f32> = h
+            .data
+            .par_chunks_mut(BAND * w)
+            .zip(moved.par_chunks_mut(BAND * w))
+            .enumerate()
+            .map(|(b, (rows, mv))| {
+                if up.per_band[b].is_empty() && down.per_band[b].is_empty() {
+                    return 0.0;
+                }
+                let (mut u, mut d) = (vec![0f32; rows.len()], vec![0f32; rows.len()]);
+                up.draw(b, b * BAND, w, &mut u);
+                down.draw(b, b * BAND, w, &mut d);
+                let mut m = 0f32;
+                for (k, v) in rows.iter_mut().enumerate() {
+                    let new = *v + (u[k] - d[k]);
+                    if new != *v {
+                        m = m.max((new - *v).abs());
+                        mv[k] = 1;
+                    }
+                    *v = new;
+                }
+                m
+            })
+            .collect();
+        stats.max_change = band_max.into_iter().fold(stats.max_change, f32::max);
     }
-    for (a, b) in h.data.iter().zip(&before.data) {
-        if a != b {
-            stats.cells_moved += 1;
-            stats.max_change = stats.max_change.max((a - b).abs());
-        }
-    }
+    stats.cells_moved = moved.iter().filter(|&&m| m != 0).count();
     stats
 }
 
@@ -250,6 +284,7 @@ mod tests {
     use super::*;
     use crate::stages::sketch::analyse;
     use ridgeline_terrain::feature_extraction::FeatureKind;
+    use ridgeline_terrain::grid::Grid;
 
     /// A 160² sketch with a ridge stroke along y = 60 and a valley stroke along
     /// y = 110 (x from 20 to 140), 3 cells wide.
