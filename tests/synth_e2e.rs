@@ -258,3 +258,36 @@ fn no_straight_seam_where_hole_filling_tiles_meet() {
         assert!(score <= 7.5, "{name}: a straight seam where hole-filling tiles meet: {score:.2}");
     }
 }
+
+#[test]
+fn loading_repairs_the_void_spike_of_the_andes_crop_and_leaves_real_relief_alone() {
+    let Some(data) = shared_data() else { return };
+    let specs = scan_library(&data.join("dems")).unwrap();
+    let mut changed_dems = Vec::new();
+    for spec in &specs {
+        let raw = ridgeline_terrain::dem_formats::read_dem(&spec.path, spec.nodata, 32768).unwrap();
+        let raw = raw.heights.map(|v| v * spec.to_metres);
+        let loaded = load_exemplar(spec, None, 32768).unwrap();
+        let moved: Vec<(usize, f32, f32)> = raw
+            .data
+            .iter()
+            .zip(&loaded.data)
+            .enumerate()
+            .filter(|(_, (a, b))| a.to_bits() != b.to_bits())
+            .map(|(i, (a, b))| (i, *a, *b))
+            .collect();
+        if !moved.is_empty() {
+            changed_dems.push(spec.name());
+            // every repaired cell was far off and now sits within its neighbours' range
+            for &(i, before, after) in &moved {
+                let (x, y) = (i % loaded.width, i / loaded.width);
+                let around: Vec<f32> =
+                    [(0, 1), (2, 1), (1, 0), (1, 2)].iter().map(|&(dx, dy)| loaded.get(x + dx - 1, y + dy - 1)).collect();
+                let (lo, hi) = around.iter().fold((f32::MAX, f32::MIN), |a, &v| (a.0.min(v), a.1.max(v)));
+                assert!((before - after).abs() > 1000.0, "{}: cell ({x},{y}) moved only {before} -> {after}", spec.name());
+                assert!(after >= lo - 100.0 && after <= hi + 100.0, "{}: ({x},{y}) = {after} outside {lo}..{hi}", spec.name());
+            }
+        }
+    }
+    assert_eq!(changed_dems, vec!["andes-chile.png".to_string()], "only the crop with a void spike changes");
+}

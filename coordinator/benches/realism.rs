@@ -17,7 +17,8 @@
 //! `cargo bench -p ridgeline --bench realism` (RIDGELINE_BENCH_SEED, default 0;
 //! RIDGELINE_BENCH_NO_FIT=1 leaves out the final sketch fit, to see what it changes;
 //! RIDGELINE_BENCH_KEEP=DIR keeps each terrain's 1:1 hillshade there, to look at, with
-//! its heights (`.f32`, little-endian rows) and placement of every cell (`.prov.u32`)).
+//! its heights (`.f32`, little-endian rows) and placement of every cell (`.prov.u32`),
+//! and keeps the drawn sketches and the libraries in the temporary folder it names).
 
 mod common;
 
@@ -304,5 +305,9 @@ fn main() {
     println!("real DEMs, each against the other {} (min / median / max):", all.len() - 1);
     println!("  landform distance        {}", spread(&mut dist));
     println!("  spectral slope difference {}", spread(&mut slope));
-    let _ = std::fs::remove_dir_all(&dir);
+    if std::env::var_os("RIDGELINE_BENCH_KEEP").is_some() {
+        println!("sketches and libraries kept in {}", dir.display());
+    } else {
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }

@@ -4,6 +4,7 @@
 
 pub mod costs;
 pub mod dem_formats;
+pub mod dem_repair;
 pub mod error;
 pub mod feature_extraction;
 pub mod grid;

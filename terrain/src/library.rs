@@ -180,11 +180,16 @@ pub fn common_cell_size(specs: &[ExemplarSpec]) -> Option<f32> {
     counts.into_iter().max_by(|a, b| a.1.cmp(&b.1).then(b.0.cmp(&a.0))).map(|(c, _)| c as f32 / 1000.0)
 }
 
-/// Loads an exemplar in metres (voids as `NaN`), resampled from its cell size to
-/// `out_cell`. Returns the heights and the cell size they now have, if known.
+/// Loads an exemplar in metres (voids as `NaN`, isolated spikes repaired:
+/// [`crate::dem_repair`]), resampled from its cell size to `out_cell`. Returns the
+/// heights and the cell size they now have, if known.
 pub fn load_exemplar(spec: &ExemplarSpec, out_cell: Option<f32>, max_side: u32) -> Result<Heightfield> {
     let raw = crate::dem_formats::read_dem(&spec.path, spec.nodata, max_side)?;
     let mut h = raw.heights.map(|v| v * spec.to_metres);
+    let spikes = crate::dem_repair::repair_spikes(&mut h);
+    if spikes > 0 {
+        tracing::info!(file = %spec.path.display(), cells = spikes, "isolated spikes in the DEM repaired");
+    }
     if let (Some(src), Some(dst)) = (spec.cell_size_m.or(raw.cell_size_m), out_cell) {
         let f = src / dst;
         if (f - 1.0).abs() > 1e-3 {

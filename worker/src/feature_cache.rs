@@ -8,7 +8,7 @@ use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
 
 /// Bump when the cached representation or the extraction code changes meaning.
-const CACHE_VERSION: &str = "ppa-v2"; // v2: exemplars upsampled bicubic
+const CACHE_VERSION: &str = "ppa-v3"; // v2: exemplars upsampled bicubic; v3: spikes repaired on load
 
 /// A folder of cached feature graphs.
 #[derive(Debug, Clone)]
