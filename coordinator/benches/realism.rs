@@ -12,7 +12,9 @@
 //! odd-numbered ones, a small one of four, and one of mixed cell sizes (60, 90 and
 //! 180 m) with small exemplars (160 x 160 and 128 x 200 cells). Beside each
 //! seam score, `(real)` is what real terrain scores when cut where the job cut: the
-//! median over the shared DEMs of a crop's seam score under the job's placement map.
+//! median over the shared DEMs of a crop's seam score under the job's placement map;
+//! `str64` counts seam runs of 64 cells or more along one row or column (straight
+//! seams: window sides and tile edges).
 //!
 //! `cargo bench -p ridgeline --bench realism` (RIDGELINE_BENCH_SEED, default 0;
 //! RIDGELINE_BENCH_NO_FIT=1 leaves out the final sketch fit, to see what it changes;
@@ -204,6 +206,30 @@ fn real_seam_score(crops: &[Heightfield], provenance: &[u32]) -> f64 {
     scores[scores.len() / 2]
 }
 
+/// Seam runs of at least `len` cells along one row or column of the placement map:
+/// straight seams, which a shaded view shows first (window sides, tile edges).
+fn straight_runs(cells: &[u32], len: usize) -> usize {
+    let mut runs = 0;
+    for (w, h, at) in [(SIDE, SIDE - 1, 0usize), (SIDE - 1, SIDE, 1)] {
+        for j in 0..h {
+            let mut run = 0;
+            for i in 0..=w {
+                let seam = i < w && {
+                    let (a, b) = if at == 0 { (j * SIDE + i, (j + 1) * SIDE + i) } else { (i * SIDE + j, i * SIDE + j + 1) };
+                    cells[a] != cells[b]
+                };
+                if seam {
+                    run += 1;
+                } else {
+                    runs += (run >= len) as usize;
+                    run = 0;
+                }
+            }
+        }
+    }
+    runs
+}
+
 /// The centre `SIDE x SIDE` crop of every real DEM that large.
 fn centre_crops(dems: &[(String, Heightfield)]) -> Vec<Heightfield> {
     dems.iter()
@@ -215,10 +241,10 @@ fn centre_crops(dems: &[(String, Heightfield)]) -> Vec<Heightfield> {
         .collect()
 }
 
-fn row(name: &str, e: &Evaluation, real_seam: f64, seconds: f64) {
+fn row(name: &str, e: &Evaluation, real_seam: f64, straight: usize, seconds: f64) {
     let o = |v: Option<f64>| v.map(|v| format!("{v:>6.2}")).unwrap_or_else(|| format!("{:>6}", "-"));
     println!(
-        "{name:<22} {} {} {:>6.3} {} {} {} {:>6.2} {:>6.3} {:>6.1}",
+        "{name:<22} {} {} {:>6.3} {} {} {} {:>6.2} {:>6} {:>6.3} {:>6.1}",
         o(e.ridge_adherence),
         o(e.valley_adherence),
         e.landform_distance,
@@ -226,6 +252,7 @@ fn row(name: &str, e: &Evaluation, real_seam: f64, seconds: f64) {
         o(e.roughness_ratio),
         o(e.seams.map(|s| s.mean_ratio)),
         real_seam,
+        straight,
         e.repetition.unwrap_or(0.0),
         seconds
     );
@@ -246,8 +273,8 @@ fn main() {
     let cache = dir.join("cache");
     println!("ridgeline realism benchmark: 7 drawn sketches x held-out libraries, seed {seed}");
     println!(
-        "{:<22} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6}",
-        "sketch / library", "ridge", "valley", "landf", "slope", "rough", "seam", "(real)", "repet", "s"
+        "{:<22} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6}",
+        "sketch / library", "ridge", "valley", "landf", "slope", "rough", "seam", "(real)", "str64", "repet", "s"
     );
     let all = evaluation::load_sources(&dems, Some(90.0), None).expect("dems");
     let crops = centre_crops(&all);
@@ -272,7 +299,7 @@ fn main() {
             sources: &sources,
             provenance: Some(&prov),
         });
-        row(&format!("{name} / {lname}"), &e, real_seam_score(&crops, &prov.cells), seconds);
+        row(&format!("{name} / {lname}"), &e, real_seam_score(&crops, &prov.cells), straight_runs(&prov.cells, 64), seconds);
         if let Some(keep) = std::env::var_os("RIDGELINE_BENCH_KEEP") {
             let keep = PathBuf::from(keep);
             std::fs::create_dir_all(&keep).expect("keep dir");

@@ -307,6 +307,12 @@ impl Canvas {
     /// one where a merge only relaxed it). Returns the number of cells that were
     /// empty before.
     pub fn commit(&mut self, sub: &Canvas) -> usize {
+        self.commit_within(sub, |_, _| true)
+    }
+
+    /// [`Canvas::commit`], except that cells empty here which the sub-canvas filled
+    /// are written only where `keep(global x, global y)` holds (the rest stay empty).
+    pub fn commit_within(&mut self, sub: &Canvas, keep: impl Fn(usize, usize) -> bool) -> usize {
         debug_assert!(self.context.is_empty(), "commit into the whole output");
         let n_ctx = sub.context.len();
         let first_new = self.placements.len() as u32;
@@ -321,6 +327,9 @@ impl Canvas {
         for j in 0..sub.heights.height {
             for i in 0..sub.heights.width {
                 if !sub.changed[j * sub.heights.width + i] {
+                    continue;
+                }
+                if self.heights.get(sx + i, sy + j).is_nan() && !keep(sx + i, sy + j) {
                     continue;
                 }
                 let id = sub.provenance.get(i, j);
@@ -403,5 +412,26 @@ mod tests {
         assert_eq!(c.provenance.get(29, 20), 1);
         assert_eq!(c.provenance.get(16, 20), 0);
         assert!(!c.height_at(29, 20).is_nan());
+    }
+
+    #[test]
+    fn commit_within_leaves_empty_cells_outside_the_extent_and_keeps_changed_old_ones() {
+        let mut c = Canvas::new(64, 48, 8);
+        c.place(20, 20, &[1.0; 64], 0.0, pl(20, 20, 0));
+        let mut sub = c.extract(Rect { x0: 10, y0: 10, x1: 40, y1: 40 }, Rect { x0: 20, y0: 20, x1: 30, y1: 30 });
+        let ramp: Vec<f32> = (0..64).map(|k| 5.0 + 3.0 * (k % 8) as f32 + (k / 8) as f32).collect();
+        sub.place(26, 20, &ramp, 0.0, pl(26, 20, 1));
+        let changed_old: Vec<(usize, usize)> = (16..24)
+            .flat_map(|y| (16..24).map(move |x| (x, y)))
+            .filter(|&(x, y)| sub.height_at(x, y) != c.height_at(x, y))
+            .collect();
+        assert!(!changed_old.is_empty(), "the merge moved old cells");
+        // keep only columns below 27: of the new cells (24..30), 24..27 are written
+        let filled = c.commit_within(&sub, |x, _| x < 27);
+        assert_eq!(filled, 3 * 8);
+        assert!((27..30).all(|x| c.height_at(x, 20).is_nan() && c.provenance.get(x, 20) == u32::MAX));
+        assert!((24..27).all(|x| !c.height_at(x, 20).is_nan()));
+        assert!(changed_old.iter().all(|&(x, y)| c.height_at(x, y) == sub.height_at(x, y)), "old cells it moved are written");
+        assert_eq!(c.empty, 64 * 48 - 64 - 24);
     }
 }

@@ -320,8 +320,10 @@ const CURVATURE_WEIGHT: f32 = 0.5;
 /// gradients (as before) drew cuts through equal levels with unequal detail; the
 /// realism bench's seam score (gradient jumps across seams over those inside
 /// patches; real terrain cut along the same seams: 1.00) went from 1.12-1.22 to
-/// 0.91-1.01 on its six drawn sketches.
-pub fn find_seam(w: usize, h: usize, old: &[f32], new: &[f32], force: &[Force]) -> Seam {
+/// 0.91-1.01 on its six drawn sketches. `cost_scale`, one factor per cell, multiplies
+/// each edge's weight by the mean of its two cells' factors (hole filling's noise, so
+/// that cuts of similar cost do not all run straight: `stages::ragged_edge`).
+pub fn find_seam(w: usize, h: usize, old: &[f32], new: &[f32], force: &[Force], cost_scale: Option<&[f32]>) -> Seam {
     let n = w * h;
     // nodes: filled cells the cut may give to either side; pinned cells are not nodes
     // (their edges become terminal capacities, which gives the same cut)
@@ -359,7 +361,8 @@ pub fn find_seam(w: usize, h: usize, old: &[f32], new: &[f32], force: &[Force]) 
                 dc += m;
             }
         }
-        (HEIGHT_WEIGHT * (da + db) + dg + CURVATURE_WEIGHT * dc) as f64 + 1e-6
+        let scale = cost_scale.map_or(1.0, |s| 0.5 * (s[a] + s[b]));
+        ((HEIGHT_WEIGHT * (da + db) + dg + CURVATURE_WEIGHT * dc) * scale) as f64 + 1e-6
     };
     for y in 0..h {
         for x in 0..w {
@@ -545,7 +548,7 @@ mod tests {
                 _ => Force::Free,
             })
             .collect();
-        let s = find_seam(w, h, &old, &new, &force);
+        let s = find_seam(w, h, &old, &new, &force, None);
         for y in 0..h {
             for x in 0..w {
                 let want = if x <= 5 { Label::Old } else { Label::New };

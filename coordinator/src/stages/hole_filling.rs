@@ -64,12 +64,15 @@
 //! **Seams of fills** stay within [`fill_band`] cells of the hole (image quilting's
 //! overlap strip; the graph cut then has a band of nodes, not the whole known part of
 //! the window), and the merge cross-fades gradients over the two cells next to the
-//! seam (`merge.rs`).
+//! seam (`merge.rs`). So that fills' window sides and tile edges do not become
+//! straight seams, the cut's weights carry smooth noise and a tile writes back what it
+//! filled only within a ragged extent of its core (`ragged_edge`).
 
 use crate::canvas::{Canvas, Placement, Rect, Win};
 use crate::pipeline::on_every_shard;
 use crate::stages::base_surface::{on_base, BaseSurface};
 use crate::stages::merge::SeamLimits;
+use crate::stages::ragged_edge::in_extent;
 use crate::stages::window_scoring::{cut_and_merge, Target, GRAPH_CUT_SET};
 use rayon::prelude::*;
 use ridgeline_terrain::shard::{FillCandidate, FillQuery, ShardError, ShardScorer};
@@ -335,14 +338,15 @@ impl TileFill {
         let Some((t, relief, base)) = self.pending.take() else { return };
         let order: Vec<(f32, usize)> = cands.iter().enumerate().map(|(i, c)| (c.cost, i)).collect();
         let (cx, cy) = (t.cx, t.cy);
-        let band = fill_band(self.sub.patch);
+        let p = self.sub.patch;
+        let band = fill_band(p);
         let placed = cut_and_merge(
             &mut self.sub,
             &t,
             &order,
             &|i| on_base(&cands[i].pixels, &base),
             relief,
-            SeamLimits { keep_radius: 0.0, band: Some(band) },
+            SeamLimits { keep_radius: 0.0, band: Some(band), cut_noise: Some((p / 8).max(2)) },
             |i| fill_placement(&cands[i], cx, cy),
         );
         let Some((_, m)) = placed else {
@@ -354,7 +358,6 @@ impl TileFill {
         self.cut_merge_s += t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
         // refresh the lattice points whose windows overlap the merged window
-        let p = self.sub.patch;
         let (gx0, gy0) = (self.sub.origin().0 + t.win.x0, self.sub.origin().1 + t.win.y0);
         let (x0, x1) = (gx0.saturating_sub(p / 2), gx0 + t.win.w + p / 2);
         let (y0, y1) = (gy0.saturating_sub(p / 2), gy0 + t.win.h + p / 2);
@@ -569,7 +572,10 @@ pub fn fill_holes(
                 // the committed tiles and their neighbours may have changed: recount each once
                 let mut touched = std::collections::BTreeSet::new();
                 for (t, &id) in tiles.iter().zip(ids) {
-                    stats.cells_filled += canvas.commit(&t.sub);
+                    // filled cells beyond the tile's ragged extent are left to the tile
+                    // that owns them (`ragged_edge`)
+                    let c = core(id);
+                    stats.cells_filled += canvas.commit_within(&t.sub, |x, y| in_extent(c, p / 4, x, y));
                     stats.fills += t.fills;
                     stats.cg_iterations += t.cg_iterations;
                     stats.target_s += t.target_s;

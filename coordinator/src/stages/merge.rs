@@ -60,10 +60,10 @@ const OLD_SIDE_FADE: f32 = 0.25;
 /// The optimal seam between the output's `old` values and a `new` patch over a
 /// window, after removing the patch's mean offset over the overlap (which the
 /// gradient-domain merge absorbs anyway).
-pub fn seam_for(win: &Win, old: &[f32], new: &[f32], force: &[Force]) -> Seam {
+pub fn seam_for(win: &Win, old: &[f32], new: &[f32], force: &[Force], cost_scale: Option<&[f32]>) -> Seam {
     let mu = Canvas::mean_offset(old, new);
     let shifted: Vec<f32> = new.iter().map(|v| v + mu).collect();
-    crate::solvers::graph_cut::find_seam(win.w, win.h, old, &shifted, force)
+    crate::solvers::graph_cut::find_seam(win.w, win.h, old, &shifted, force, cost_scale)
 }
 
 /// How much of the interpolated gradient mismatch a cell keeps at `t` = (distance to
@@ -106,6 +106,10 @@ pub struct SeamLimits {
     /// like image quilting's overlap strip, and the graph cut has only the band's
     /// cells as nodes. `None`: anywhere in the window.
     pub band: Option<usize>,
+    /// Scale the cut's edge weights by smooth noise with knots this many cells apart,
+    /// so that cuts of similar cost wander instead of running straight
+    /// (`ragged_edge::cut_noise`). `None`: the weights as they are.
+    pub cut_noise: Option<usize>,
 }
 
 /// Breadth-first step counts on a `w x h` grid from the `seeds`, moving 8-connected
@@ -161,7 +165,7 @@ impl Canvas {
     /// the window take the new patch, as do cells within the limits' `keep_radius` of
     /// the centre; with a `band`, cells beyond it keep the old terrain.
     pub fn forces(&self, win: &Win, old: &[f32], limits: SeamLimits) -> Vec<Force> {
-        let SeamLimits { keep_radius, band } = limits;
+        let SeamLimits { keep_radius, band, .. } = limits;
         let (w, h) = (win.w, win.h);
         let out = &self.heights;
         let filled_out = |x: i64, y: i64| out.get_i(x, y).map(|v| !v.is_nan()).unwrap_or(false);
@@ -222,8 +226,8 @@ impl Canvas {
         let win = self.window(cx, cy);
         let old = self.old_values(&win);
         let new = win.crop(pixels);
-        let force = self.forces(&win, &old, SeamLimits { keep_radius, band: None });
-        let seam = seam_for(&win, &old, &new, &force);
+        let force = self.forces(&win, &old, SeamLimits { keep_radius, band: None, cut_noise: None });
+        let seam = seam_for(&win, &old, &new, &force, None);
         self.merge(&win, &new, &seam, placement)
     }
 

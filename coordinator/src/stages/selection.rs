@@ -68,7 +68,7 @@ pub fn select_and_merge(canvas: &mut Canvas, cx: usize, cy: usize, cands: &[Scor
         &scored,
         &|i| cands[i].pixels.clone(),
         relief,
-        SeamLimits { keep_radius: p as f32 / 8.0, band: None },
+        SeamLimits { keep_radius: p as f32 / 8.0, band: None, cut_noise: None },
         |i| {
             let c = &cands[i];
             Placement {

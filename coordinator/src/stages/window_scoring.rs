@@ -73,6 +73,7 @@ pub fn graph_cut_choice(
     order: &[(f32, usize)],
     pixels: &(dyn Fn(usize) -> Vec<f32> + Sync),
     relief: f32,
+    cost_scale: Option<&[f32]>,
 ) -> Option<Choice> {
     let mut best: Option<Choice> = None;
     for &(total, index) in order.iter().take(GRAPH_CUT_SET) {
@@ -80,7 +81,7 @@ pub fn graph_cut_choice(
             continue;
         }
         let new = win.crop(&pixels(index));
-        let seam = seam_for(win, old, &new, force);
+        let seam = seam_for(win, old, &new, force, cost_scale);
         let norm = if seam.edges > 0 { seam.cost as f32 / (seam.edges as f32 * relief) } else { 0.0 };
         let c = Choice { index, seam, new, total: total + norm };
         if best.as_ref().is_none_or(|b| c.total.total_cmp(&b.total).then(c.index.cmp(&b.index)).is_lt()) {
@@ -104,7 +105,8 @@ pub fn cut_and_merge(
     placement: impl FnOnce(usize) -> Placement,
 ) -> Option<(usize, MergeStats)> {
     let force = canvas.forces(&target.win, &target.old, limits);
-    let choice = graph_cut_choice(&target.win, &target.old, &force, order, pixels, relief)?;
+    let noise = limits.cut_noise.map(|k| crate::stages::ragged_edge::cut_noise(canvas, &target.win, k));
+    let choice = graph_cut_choice(&target.win, &target.old, &force, order, pixels, relief, noise.as_deref())?;
     let stats = canvas.merge(&target.win, &choice.new, &choice.seam, placement(choice.index));
     Some((choice.index, stats))
 }
