@@ -82,15 +82,23 @@ pub fn in_extent(core: Rect, margin: usize, x: usize, y: usize) -> bool {
 pub fn cut_noise(canvas: &Canvas, win: &Win, k: usize) -> Vec<f32> {
     let (ox, oy) = canvas.origin();
     let k = k.max(2) as i64;
+    let (gx0, gy0) = ((ox + win.x0) as i64, (oy + win.y0) as i64);
+    // the knots the window spans, hashed once each
+    let (qx0, qy0) = (gx0.div_euclid(k), gy0.div_euclid(k));
+    let (nx, ny) =
+        (((gx0 + win.w as i64).div_euclid(k) - qx0 + 2) as usize, ((gy0 + win.h as i64).div_euclid(k) - qy0 + 2) as usize);
+    let knots: Vec<f32> = (0..nx * ny).map(|i| knot(2, qx0 + (i % nx) as i64, qy0 + (i / nx) as i64)).collect();
+    let weights: Vec<f32> = (0..k).map(|r| smooth(r as f32 / k as f32)).collect();
     let mut out = Vec::with_capacity(win.w * win.h);
-    for j in 0..win.h {
-        let gy = (oy + win.y0 + j) as i64;
-        let (qy, ty) = (gy.div_euclid(k), smooth(gy.rem_euclid(k) as f32 / k as f32));
-        for i in 0..win.w {
-            let gx = (ox + win.x0 + i) as i64;
-            let (qx, tx) = (gx.div_euclid(k), smooth(gx.rem_euclid(k) as f32 / k as f32));
-            let top = knot(2, qx, qy) + (knot(2, qx + 1, qy) - knot(2, qx, qy)) * tx;
-            let bottom = knot(2, qx, qy + 1) + (knot(2, qx + 1, qy + 1) - knot(2, qx, qy + 1)) * tx;
+    for j in 0..win.h as i64 {
+        let gy = gy0 + j;
+        let (ry, ty) = ((gy.div_euclid(k) - qy0) as usize, weights[gy.rem_euclid(k) as usize]);
+        for i in 0..win.w as i64 {
+            let gx = gx0 + i;
+            let (rx, tx) = ((gx.div_euclid(k) - qx0) as usize, weights[gx.rem_euclid(k) as usize]);
+            let at = |dx: usize, dy: usize| knots[(ry + dy) * nx + rx + dx];
+            let top = at(0, 0) + (at(1, 0) - at(0, 0)) * tx;
+            let bottom = at(0, 1) + (at(1, 1) - at(0, 1)) * tx;
             let n = top + (bottom - top) * ty;
             out.push((1.2 * (2.0 * n - 1.0)).exp());
         }
