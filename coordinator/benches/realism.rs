@@ -209,15 +209,14 @@ fn real_seam_score(crops: &[Heightfield], provenance: &[u32]) -> f64 {
 /// Seam runs of at least `len` cells along one row or column of the placement map:
 /// straight seams, which a shaded view shows first (window sides, tile edges).
 fn straight_runs(cells: &[u32], len: usize) -> usize {
+    let at = |x: usize, y: usize| cells[y * SIDE + x];
     let mut runs = 0;
-    for (w, h, at) in [(SIDE, SIDE - 1, 0usize), (SIDE - 1, SIDE, 1)] {
-        for j in 0..h {
+    // seams between rows y and y + 1 (walking x), then between columns x and x + 1 (walking y)
+    for vertical in [false, true] {
+        for line in 0..SIDE - 1 {
             let mut run = 0;
-            for i in 0..=w {
-                let seam = i < w && {
-                    let (a, b) = if at == 0 { (j * SIDE + i, (j + 1) * SIDE + i) } else { (i * SIDE + j, i * SIDE + j + 1) };
-                    cells[a] != cells[b]
-                };
+            for i in 0..=SIDE {
+                let seam = i < SIDE && if vertical { at(line, i) != at(line + 1, i) } else { at(i, line) != at(i, line + 1) };
                 if seam {
                     run += 1;
                 } else {
