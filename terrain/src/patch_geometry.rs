@@ -292,21 +292,24 @@ pub fn extract_patch(src: &Grid<f32>, cx: usize, cy: usize, size: usize, v: Vari
         if ends.iter().all(|&(x, y)| x >= 1.0 && y >= 1.0 && x <= wf - 3.0 && y <= hf - 3.0) {
             let w = src.width;
             let d = &src.data;
+            // `inverse`'s products split by axis (the same operations in the same order)
+            let (sn, cs) = rot(v.0);
+            let cols: Vec<(f32, f32)> = (0..size).map(|i| (cs * (i as f32 - half), -sn * (i as f32 - half))).collect();
+            let (fx, fy) = (cx as f32, cy as f32);
             for j in 0..size {
-                for i in 0..size {
-                    let (px, py) = pos(i, j);
+                let y = j as f32 - half;
+                let (sy, cy) = (sn * y, cs * y);
+                for &(xc, xs) in &cols {
+                    let (px, py) = (fx + (xc + sy), fy + (xs + cy));
                     let (x0, y0) = (px as usize, py as usize);
                     let (wx, wy) = (cubic_weights(px - x0 as f32), cubic_weights(py - y0 as f32));
-                    let mut acc = 0f32;
-                    for (jj, wyj) in wy.iter().enumerate() {
-                        let row = (y0 + jj - 1) * w + x0 - 1;
-                        let mut r = 0f32;
-                        for (ii, wxi) in wx.iter().enumerate() {
-                            r += wxi * d[row + ii];
-                        }
-                        acc += wyj * r;
-                    }
-                    out.push(acc);
+                    let top = (y0 - 1) * w + x0 - 1;
+                    let block = &d[top..top + 3 * w + 4];
+                    let rows: [f32; 4] = std::array::from_fn(|jj| {
+                        let taps = &block[jj * w..jj * w + 4];
+                        (((0.0 + wx[0] * taps[0]) + wx[1] * taps[1]) + wx[2] * taps[2]) + wx[3] * taps[3]
+                    });
+                    out.push((((0.0 + wy[0] * rows[0]) + wy[1] * rows[1]) + wy[2] * rows[2]) + wy[3] * rows[3]);
                 }
             }
             return out;

@@ -46,11 +46,14 @@ impl ScoringBackend for CpuBackend {
             .par_iter()
             .map(|&(s, b)| {
                 let _span = tracing::trace_span!("best_set", user_patch = block[b].id, source = sources[s].id).entered();
-                Some(patch_matching::best_set(&sources[s], &block[b], k, patch))
+                Some(patch_matching::ranked_best_set(&sources[s], &block[b], k))
             })
             .collect();
         let (n, ns) = (block.len(), sources.len());
-        Ok((0..n).flat_map(|b| (0..ns).map(move |s| s * n + b)).filter_map(|i| sets[i].take()).collect())
+        let mut sets: Vec<BestSet> =
+            (0..n).flat_map(|b| (0..ns).map(move |s| s * n + b)).filter_map(|i| sets[i].take()).collect();
+        patch_matching::attach_pixels(sources, &mut sets, patch);
+        Ok(sets)
     }
 
     fn fill(

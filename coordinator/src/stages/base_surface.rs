@@ -184,18 +184,26 @@ impl BaseSurface {
     /// grid (twice continuously differentiable, so a hillshade shows no facets along
     /// the coarse cells' edges, as a bilinear surface would).
     pub fn at(&self, x: usize, y: usize) -> f32 {
-        let c = self.cell as f32;
-        let (u, v) = ((x as f32 + 0.5) / c - 0.5, (y as f32 + 0.5) / c - 0.5);
-        let (iu, iv) = (u.floor(), v.floor());
-        let (wu, wv) = (bspline_weights(u - iu), bspline_weights(v - iv));
-        let clamp = |i: f32, n: usize| (i.max(0.0) as usize).min(n - 1);
+        self.sum(&self.taps(x, self.cw), &self.taps(y, self.ch))
+    }
+
+    /// The coarse cells (clamped to the grid) and B-spline weights along one axis
+    /// for global cell `g`, on a coarse axis of `n` cells.
+    fn taps(&self, g: usize, n: usize) -> ([usize; 4], [f32; 4]) {
+        let u = (g as f32 + 0.5) / self.cell as f32 - 0.5;
+        let iu = u.floor();
+        let clamp = |i: f32| (i.max(0.0) as usize).min(n - 1);
+        (std::array::from_fn(|a| clamp(iu + a as f32 - 1.0)), bspline_weights(u - iu))
+    }
+
+    /// The tensor-product sum over the 4 x 4 coarse cells of column and row taps.
+    fn sum(&self, (xs, wu): &([usize; 4], [f32; 4]), (ys, wv): &([usize; 4], [f32; 4])) -> f32 {
         let mut s = 0f32;
-        for (b, wy) in wv.iter().enumerate() {
-            let y = clamp(iv + b as f32 - 1.0, self.ch);
+        for (&y, wy) in ys.iter().zip(wv) {
             let row = &self.values[y * self.cw..(y + 1) * self.cw];
             let mut r = 0f32;
-            for (a, wx) in wu.iter().enumerate() {
-                r += wx * row[clamp(iu + a as f32 - 1.0, self.cw)];
+            for (&x, wx) in xs.iter().zip(wu) {
+                r += wx * row[x];
             }
             s += wy * r;
         }
@@ -204,17 +212,16 @@ impl BaseSurface {
 
     /// The surface over a patch-sized array for window `win` of a canvas whose first
     /// cell is at global `origin` (cells of the patch outside the output get the
-    /// nearest edge value; they are never used).
+    /// nearest edge value; they are never used). Column taps are found once.
     pub fn patch(&self, win: &Win, origin: (usize, usize)) -> Vec<f32> {
         let p = win.patch;
         let gx0 = (origin.0 + win.x0) as i64 - win.px as i64;
         let gy0 = (origin.1 + win.y0) as i64 - win.py as i64;
+        let cols: Vec<([usize; 4], [f32; 4])> = (0..p as i64).map(|i| self.taps((gx0 + i).max(0) as usize, self.cw)).collect();
         let mut out = Vec::with_capacity(p * p);
         for j in 0..p as i64 {
-            let y = (gy0 + j).max(0) as usize;
-            for i in 0..p as i64 {
-                out.push(self.at((gx0 + i).max(0) as usize, y));
-            }
+            let row = self.taps((gy0 + j).max(0) as usize, self.ch);
+            out.extend(cols.iter().map(|col| self.sum(col, &row)));
         }
         out
     }

@@ -273,17 +273,19 @@ pub fn score_block(
     if overflowed > 0 {
         tracing::debug!(pairs = overflowed, "round-1 hit lists overflowed; those pairs scored on the CPU");
     }
-    Ok(kept
+    let mut sets: Vec<BestSet> = kept
         .into_par_iter()
         .enumerate()
         .map(|(i, kept)| {
             let (b, s) = (i / ns, i % ns);
             match kept {
-                Some(kept) => patch_matching::finish(&sources[s], &block[b], &data.offs[b], &kept, k, patch),
-                None => patch_matching::best_set(&sources[s], &block[b], k, patch),
+                Some(kept) => patch_matching::finish(&sources[s], &block[b], &data.offs[b], &kept, k),
+                None => patch_matching::ranked_best_set(&sources[s], &block[b], k),
             }
         })
-        .collect())
+        .collect();
+    patch_matching::attach_pixels(sources, &mut sets, patch);
+    Ok(sets)
 }
 
 /// Every filter cost the kernel computes for a block, per pair in (user patch, source)
