@@ -298,9 +298,9 @@ pub fn extract_patch(src: &Grid<f32>, cx: usize, cy: usize, size: usize, v: Vari
             let (fx, fy) = (cx as f32, cy as f32);
             for j in 0..size {
                 let y = j as f32 - half;
-                let (sy, cy) = (sn * y, cs * y);
+                let (ys, yc) = (sn * y, cs * y);
                 for &(xc, xs) in &cols {
-                    let (px, py) = (fx + (xc + sy), fy + (xs + cy));
+                    let (px, py) = (fx + (xc + ys), fy + (xs + yc));
                     let (x0, y0) = (px as usize, py as usize);
                     let (wx, wy) = (cubic_weights(px - x0 as f32), cubic_weights(py - y0 as f32));
                     let top = (y0 - 1) * w + x0 - 1;

@@ -257,9 +257,8 @@ pub fn attach_pixels(sources: &[Source], sets: &mut [BestSet], patch: usize) {
         .map(|c| extract_patch(&index[&c.source].heights, c.x as usize, c.y as usize, patch, c.variant))
         .collect();
     sets.par_iter_mut().flat_map(|set| set.entries.par_iter_mut()).for_each(|e| {
-        if let Ok(i) = wanted.binary_search(&e.cand) {
-            e.pixels.clone_from(&pixels[i]);
-        }
+        let i = wanted.binary_search(&e.cand).expect("every entry's location was extracted");
+        e.pixels.clone_from(&pixels[i]);
     });
 }
 
