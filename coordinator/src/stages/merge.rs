@@ -159,6 +159,102 @@ fn pin_beyond_band(f: &mut [Force], w: usize, h: usize, band: usize) {
     }
 }
 
+/// A seam cell of a merge with the old-minus-new mismatch of the x and y gradients
+/// and of the height there.
+struct SeamPt {
+    x: f32,
+    y: f32,
+    rx: f32,
+    ry: f32,
+    rv: f32,
+}
+
+/// Lanes of the Shepard sums: each cell's sums run over its seam points in groups of
+/// this many, in a fixed order (the result depends only on the merge, never on the
+/// machine), which the compiler turns into vector instructions.
+const LANES: usize = 8;
+
+/// Seam points by d_φ-sized bucket, each bucket holding (structure of arrays, padded
+/// to whole [`LANES`] with points out of reach) the points of its 3 x 3 buckets
+/// around it: every point within d_φ of a cell in the bucket.
+struct ShepardNeighbours {
+    dphi: f32,
+    bs: usize,
+    bw: usize,
+    /// Per bucket: x, y, rx, ry, rv of its neighbourhood's points.
+    lists: Vec<[Vec<f32>; 5]>,
+}
+
+impl ShepardNeighbours {
+    fn new(pts: &[SeamPt], w: usize, h: usize, dphi: f32) -> Self {
+        let bs = dphi.ceil() as usize;
+        let (bw, bh) = (w / bs + 1, h / bs + 1);
+        let mut own: Vec<Vec<usize>> = vec![Vec::new(); bw * bh];
+        for (k, s) in pts.iter().enumerate() {
+            own[(s.y as usize / bs) * bw + s.x as usize / bs].push(k);
+        }
+        let far = -4.0 * (w + h) as f32 - 4.0 * dphi;
+        let mut lists = Vec::with_capacity(bw * bh);
+        for bj in 0..bh {
+            for bi in 0..bw {
+                let mut l: [Vec<f32>; 5] = Default::default();
+                for y in bj.saturating_sub(1)..=(bj + 1).min(bh - 1) {
+                    for x in bi.saturating_sub(1)..=(bi + 1).min(bw - 1) {
+                        for &k in &own[y * bw + x] {
+                            let s = &pts[k];
+                            for (v, f) in l.iter_mut().zip([s.x, s.y, s.rx, s.ry, s.rv]) {
+                                v.push(f);
+                            }
+                        }
+                    }
+                }
+                let pad = l[0].len().next_multiple_of(LANES);
+                for (c, v) in l.iter_mut().enumerate() {
+                    v.resize(pad, if c < 2 { far } else { 0.0 });
+                }
+                lists.push(l);
+            }
+        }
+        ShepardNeighbours { dphi, bs, bw, lists }
+    }
+
+    /// The Shepard-interpolated mismatch (x gradient, y gradient, height) at a cell
+    /// that is not a seam cell, and its taper by the distance to the nearest seam cell
+    /// (exponent 2, radius d_φ, weights `((d_φ - d) / (d_φ d))²`).
+    fn interpolate(&self, i: usize, j: usize) -> (f32, f32, f32, f32) {
+        let [xs, ys, rxs, rys, rvs] = &self.lists[(j / self.bs) * self.bw + i / self.bs];
+        let (fi, fj, dphi) = (i as f32, j as f32, self.dphi);
+        let dphi2 = dphi * dphi;
+        let (mut sw, mut sx, mut sy, mut sv) = ([0f32; LANES], [0f32; LANES], [0f32; LANES], [0f32; LANES]);
+        let mut nearest2 = [dphi2; LANES];
+        let chunks = xs.chunks_exact(LANES).zip(ys.chunks_exact(LANES));
+        let values = rxs.chunks_exact(LANES).zip(rys.chunks_exact(LANES)).zip(rvs.chunks_exact(LANES));
+        for ((x, y), ((rx, ry), rv)) in chunks.zip(values) {
+            for l in 0..LANES {
+                let d2 = (x[l] - fi) * (x[l] - fi) + (y[l] - fj) * (y[l] - fj);
+                let inside = d2 < dphi2;
+                let d = d2.sqrt();
+                let q = (dphi - d) / (dphi * d);
+                let wgt = if inside { q * q } else { 0.0 };
+                nearest2[l] = if inside && d2 < nearest2[l] { d2 } else { nearest2[l] };
+                sw[l] += wgt;
+                sx[l] += wgt * rx[l];
+                sy[l] += wgt * ry[l];
+                sv[l] += wgt * rv[l];
+            }
+        }
+        let total = |a: [f32; LANES]| a.iter().sum::<f32>();
+        let sw = total(sw);
+        let nearest = nearest2.iter().fold(dphi2, |m, &v| m.min(v)).sqrt();
+        let taper = shepard_taper(nearest / dphi);
+        if sw > 0.0 {
+            (total(sx) / sw, total(sy) / sw, total(sv) / sw, taper)
+        } else {
+            (0.0, 0.0, 0.0, taper)
+        }
+    }
+}
+
 impl Canvas {
     /// Seam constraints (Kwatra 2003): filled window-border cells whose outside
     /// neighbour is filled keep the old terrain; filled cells next to an empty cell of
@@ -310,13 +406,6 @@ impl Canvas {
             }
         };
         // seam cells: unknown cells with a fixed 4-neighbour
-        struct SeamPt {
-            x: f32,
-            y: f32,
-            rx: f32,
-            ry: f32,
-            rv: f32,
-        }
         let mut seam_pts: Vec<SeamPt> = Vec::new();
         for j in 0..eh {
             for i in 0..ew {
@@ -343,15 +432,11 @@ impl Canvas {
         let mut delta_x = vec![0f32; n];
         let mut delta_y = vec![0f32; n];
         let mut guess = vec![0f32; n];
-        // seam points bucketed by dphi-sized cells: a cell only looks at the 3 x 3
-        // buckets around it, the only ones within dphi
-        let bs = dphi.ceil() as usize;
-        let (bw, bh) = (ew / bs + 1, eh / bs + 1);
-        let mut buckets: Vec<Vec<usize>> = vec![Vec::new(); bw * bh];
+        let near_seam = ShepardNeighbours::new(&seam_pts, ew, eh, dphi);
+        let mut seam_at = vec![u32::MAX; n];
         for (k, s) in seam_pts.iter().enumerate() {
-            buckets[(s.y as usize / bs) * bw + s.x as usize / bs].push(k);
+            seam_at[s.y as usize * ew + s.x as usize] = k as u32;
         }
-        let dphi2 = dphi * dphi;
         for j in 0..eh {
             for i in 0..ew {
                 let e = j * ew + i;
@@ -361,39 +446,11 @@ impl Canvas {
                     }
                     continue;
                 }
-                let (mut sw, mut sx, mut sy, mut sv) = (0f32, 0f32, 0f32, 0f32);
-                let mut exact = None;
-                let mut nearest2 = dphi2;
-                let (bi, bj) = (i / bs, j / bs);
-                let near = (bj.saturating_sub(1)..=(bj + 1).min(bh - 1))
-                    .flat_map(|y| (bi.saturating_sub(1)..=(bi + 1).min(bw - 1)).map(move |x| y * bw + x))
-                    .flat_map(|b| buckets[b].iter());
-                for &k in near {
-                    let s = &seam_pts[k];
-                    let d2 = (s.x - i as f32).powi(2) + (s.y - j as f32).powi(2);
-                    if d2 >= dphi2 {
-                        continue;
-                    }
-                    nearest2 = nearest2.min(d2);
-                    let d = d2.sqrt();
-                    if d < 1e-6 {
-                        exact = Some(s);
-                        break;
-                    }
-                    {
-                        let wgt = ((dphi - d) / (dphi * d)).powi(2);
-                        sw += wgt;
-                        sx += wgt * s.rx;
-                        sy += wgt * s.ry;
-                        sv += wgt * s.rv;
-                    }
-                }
-                let (dx, dy, dv) = match exact {
-                    Some(s) => (s.rx, s.ry, s.rv),
-                    None if sw > 0.0 => (sx / sw, sy / sw, sv / sw),
-                    None => (0.0, 0.0, 0.0),
+                // on a seam cell the mismatch is its own, whole (Shepard's limit)
+                let (dx, dy, dv, taper) = match seam_pts.get(seam_at[e] as usize) {
+                    Some(s) => (s.rx, s.ry, s.rv, 1.0),
+                    None => near_seam.interpolate(i, j),
                 };
-                let taper = shepard_taper(nearest2.sqrt() / dphi);
                 delta_x[e] = dx * taper;
                 delta_y[e] = dy * taper;
                 guess[e] = bb[e] + dv;
