@@ -3,9 +3,12 @@
 //! field, with Dirichlet values on fixed neighbours and natural (Neumann) boundaries
 //! elsewhere. A small screening term ties every unknown to an anchor height so a
 //! region with no fixed neighbour is still well posed (it then equals the anchor up
-//! to the gradient fit). Solved by conjugate gradients with a Jacobi preconditioner:
-//! the systems are at most patch² unknowns and start from a close guess, so CG is
-//! both simpler and faster here than a multigrid hierarchy.
+//! to the gradient fit). Solved by conjugate gradients with the two-level
+//! preconditioner of [`super::two_level`] (a coarse grid of 4 x 4 blocks between two
+//! Jacobi steps): the systems are at most patch² unknowns and start from a close guess;
+//! with plain Jacobi they took about a hundred iterations each, with the coarse grid
+//! about nine (mixed-1024: 73,257 iterations for 691 merges with Jacobi, 5,991 for
+//! 694 with the coarse grid, to the same residual).
 
 /// A Poisson problem on a `w x h` window.
 pub struct PoissonProblem<'a> {
@@ -25,6 +28,8 @@ pub struct PoissonProblem<'a> {
 }
 
 /// How the solve went.
+use super::two_level::{Stencil, TwoLevel};
+
 #[derive(Debug, Clone, Copy)]
 pub struct SolveStats {
     pub iterations: usize,
@@ -116,20 +121,9 @@ impl PoissonProblem<'_> {
         }
         let bnorm = b.iter().map(|v| v * v).sum::<f64>().sqrt().max(1e-12);
         let d32: Vec<f32> = diag.iter().map(|&d| d as f32).collect();
-        let inv32: Vec<f32> = diag.iter().map(|&d| if d != 0.0 { (1.0 / d) as f32 } else { 0.0 }).collect();
         let mask: Vec<f32> = diag.iter().map(|&d| (d != 0.0) as u8 as f32).collect();
-        let inner = len - 2 * bw;
-        // out = A v: the stencil only couples unknown neighbours (v is zero elsewhere)
-        // and the mask keeps out zero off the unknown cells
-        let apply = |v: &[f32], out: &mut [f32]| {
-            let (left, right) = (&v[bw - 1..bw - 1 + inner], &v[bw + 1..bw + 1 + inner]);
-            let (up, down, mid) = (&v[..inner], &v[2 * bw..2 * bw + inner], &v[bw..bw + inner]);
-            let (d, m) = (&d32[bw..bw + inner], &mask[bw..bw + inner]);
-            let out = &mut out[bw..bw + inner];
-            for k in 0..inner {
-                out[k] = m[k] * (d[k] * mid[k] - (left[k] + right[k] + up[k] + down[k]));
-            }
-        };
+        let a = Stencil { bw, inner: len - 2 * bw, diag: &d32, mask: &mask };
+        let mut pre = TwoLevel::new(&diag, bw);
         // f32 dot products in eight fixed partial sums, totalled in f64
         let dot = |a: &[f32], b: &[f32]| -> f64 {
             let mut acc = [0f32; 8];
@@ -146,14 +140,15 @@ impl PoissonProblem<'_> {
             acc.iter().map(|&v| v as f64).sum()
         };
         let mut r: Vec<f32> = r0.iter().map(|&v| v as f32).collect();
-        let mut z: Vec<f32> = r.iter().zip(&inv32).map(|(a, d)| a * d).collect();
+        let mut z = vec![0f32; len];
+        pre.precondition(&a, &r, &mut z);
         let mut p = z.clone();
         let mut rz = dot(&r, &z);
         let mut ap = vec![0f32; len];
         let mut it = 0;
         let mut rel = r0.iter().map(|v| v * v).sum::<f64>().sqrt() / bnorm;
         while it < max_iter && rel > tol {
-            apply(&p, &mut ap);
+            a.apply(&p, &mut ap);
             let pap = dot(&p, &ap);
             if pap <= 0.0 {
                 break;
@@ -169,9 +164,7 @@ impl PoissonProblem<'_> {
             if !(it < max_iter && rel > tol) {
                 break;
             }
-            for ((zg, rg), dg) in z.iter_mut().zip(&r).zip(&inv32) {
-                *zg = rg * dg;
-            }
+            pre.precondition(&a, &r, &mut z);
             let rz_new = dot(&r, &z);
             let beta = (rz_new / rz) as f32;
             rz = rz_new;
