@@ -533,3 +533,48 @@ impl Canvas {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shepard_neighbours_match_the_sum_over_every_seam_point() {
+        // seam points scattered over a 70 x 58 window; at every cell that is not one,
+        // the bucketed, laned sums equal the plain sum over all points within d_φ
+        let (w, h, dphi) = (70usize, 58usize, 16.0f32);
+        let pts: Vec<SeamPt> = (0..140)
+            .map(|k| {
+                let (x, y) = ((k * 37 + k * k) % w, (k * 11 + 3 * k * k) % h);
+                let f = k as f32;
+                SeamPt { x: x as f32, y: y as f32, rx: (f * 0.7).sin(), ry: (f * 1.3).cos(), rv: f % 9.0 - 4.0 }
+            })
+            .collect();
+        let near = ShepardNeighbours::new(&pts, w, h, dphi);
+        let mut checked = 0;
+        for j in 0..h {
+            for i in 0..w {
+                if pts.iter().any(|s| s.x == i as f32 && s.y == j as f32) {
+                    continue;
+                }
+                let (mut sw, mut sx, mut sy, mut sv, mut nearest) = (0f64, 0f64, 0f64, 0f64, dphi as f64);
+                for s in &pts {
+                    let d = ((s.x as f64 - i as f64).powi(2) + (s.y as f64 - j as f64).powi(2)).sqrt();
+                    if d < dphi as f64 {
+                        let wgt = ((dphi as f64 - d) / (dphi as f64 * d)).powi(2);
+                        (sw, sx, sy, sv) = (sw + wgt, sx + wgt * s.rx as f64, sy + wgt * s.ry as f64, sv + wgt * s.rv as f64);
+                        nearest = nearest.min(d);
+                    }
+                }
+                let (dx, dy, dv, taper) = near.interpolate(i, j);
+                let want = if sw > 0.0 { (sx / sw, sy / sw, sv / sw) } else { (0.0, 0.0, 0.0) };
+                for (got, want) in [(dx, want.0), (dy, want.1), (dv, want.2)] {
+                    assert!((got as f64 - want).abs() < 1e-4 * (1.0 + want.abs()), "({i},{j}): {got} vs {want}");
+                }
+                assert!((taper as f64 - shepard_taper((nearest / dphi as f64) as f32) as f64).abs() < 1e-5);
+                checked += (sw > 0.0) as usize;
+            }
+        }
+        assert!(checked > w * h / 2, "most cells have a seam point within d_φ: {checked}");
+    }
+}
