@@ -262,13 +262,6 @@ pub fn attach_pixels(sources: &[Source], sets: &mut [BestSet], patch: usize) {
     });
 }
 
-/// Round 1 for one user patch against one source on the CPU, with the pixels.
-pub fn best_set(src: &Source, q: &UserPatchQuery, k: usize, patch: usize) -> BestSet {
-    let mut set = ranked_best_set(src, q, k);
-    attach_pixels(std::slice::from_ref(src), std::slice::from_mut(&mut set), patch);
-    set
-}
-
 /// Round 1 for one user patch against one source on the CPU, ranked without pixels.
 pub fn ranked_best_set(src: &Source, q: &UserPatchQuery, k: usize) -> BestSet {
     let nodes = nodes_for(src, q.kind);
@@ -393,7 +386,7 @@ mod tests {
             let q = synthetic_query();
             for k in [1, 5, 12] {
                 let got: Vec<(CandidateRef, u32)> =
-                    best_set(&src, &q, k, 16).entries.iter().map(|e| (e.cand, e.cost.to_bits())).collect();
+                    ranked_best_set(&src, &q, k).entries.iter().map(|e| (e.cand, e.cost.to_bits())).collect();
                 assert_eq!(got, brute_force(&src, &q, k), "k = {k}, min_range {min_range}");
             }
         }

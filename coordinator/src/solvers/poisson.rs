@@ -10,6 +10,8 @@
 //! about nine (mixed-1024: 73,257 iterations for 691 merges with Jacobi, 5,991 for
 //! 694 with the coarse grid, to the same residual).
 
+use super::two_level::{Stencil, TwoLevel};
+
 /// A Poisson problem on a `w x h` window.
 pub struct PoissonProblem<'a> {
     pub w: usize,
@@ -28,8 +30,6 @@ pub struct PoissonProblem<'a> {
 }
 
 /// How the solve went.
-use super::two_level::{Stencil, TwoLevel};
-
 #[derive(Debug, Clone, Copy)]
 pub struct SolveStats {
     pub iterations: usize,

@@ -95,7 +95,7 @@ impl TwoLevel {
         // Galerkin operator Pᵀ A P: block diagonal = Σ d - 2·(couplings inside the
         // block); blocks a 4-neighbour apart are coupled by -(cell pairs between them)
         let n = n as usize;
-        let mut entries: Vec<(u32, u32, f64)> = Vec::new();
+        let mut couplings: Vec<(u32, u32)> = Vec::new();
         let mut cdiag = vec![0f64; n];
         for &(g, c) in &cells {
             let g = g as usize;
@@ -106,18 +106,18 @@ impl TwoLevel {
                     if cq == c {
                         cdiag[c as usize] -= 2.0;
                     } else {
-                        entries.push((c.max(cq), c.min(cq), -1.0));
+                        couplings.push((c.max(cq), c.min(cq)));
                     }
                 }
             }
         }
-        let band = entries.iter().map(|&(i, j, _)| (i - j) as usize).max().unwrap_or(0);
+        let band = couplings.iter().map(|&(i, j)| (i - j) as usize).max().unwrap_or(0);
         let mut m = BandedCholesky { n, band, l: vec![0f64; n * (band + 1)] };
         for (i, &d) in cdiag.iter().enumerate() {
             *m.at(i, i) = d;
         }
-        for (i, j, v) in entries {
-            *m.at(i as usize, j as usize) += v;
+        for (i, j) in couplings {
+            *m.at(i as usize, j as usize) -= 1.0;
         }
         let coarse = m.factor().then_some(m);
         TwoLevel { inv, cells, coarse, rc: vec![0f64; n], t: vec![0f32; len] }

@@ -250,7 +250,7 @@ fn chunks(ctx: &GpuContext, all: &[GpuPair]) -> Vec<Vec<GpuPair>> {
 }
 
 /// Round 1 of a block on the GPU, in (user patch, source) order; the same best-sets
-/// as `patch_matching::best_set` pair by pair.
+/// as `patch_matching::ranked_best_set` pair by pair, pixels attached alike.
 pub fn score_block(
     ctx: &GpuContext,
     res: &Resident,
