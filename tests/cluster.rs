@@ -3,10 +3,10 @@
 //! token, malformed requests, sockets held half-open, an unusable data dir.
 
 use ridgeline::cluster::{Cluster, ClusterConfig};
-use ridgeline::pipeline::{run_job, SynthConfig};
+use ridgeline::session::Backend;
 use ridgeline_proto::v1;
 use ridgeline_terrain::io::encode_tiff_f32;
-use ridgeline_tests::{shared_data, temp_dir, WorkerProc};
+use ridgeline_tests::{session, shared_data, temp_dir, WorkerProc};
 use std::sync::Arc;
 
 const TOKEN: &str = "cluster-secret";
@@ -22,8 +22,12 @@ fn cluster(workers: &[&WorkerProc], token: &str) -> Arc<Cluster> {
 
 fn job(data: &std::path::Path, cache: &std::path::Path, cluster: Option<Arc<Cluster>>) -> Result<Vec<u8>, String> {
     // small blocks: many round trips, so a kill lands mid-job
-    let cfg = SynthConfig { cluster, block: 2, cache_dir: Some(cache.to_path_buf()), ..Default::default() };
-    run_job(&data.join("sketches/small-range-512.png"), &data.join("dems"), &cfg)
+    let backend = cluster.map(Backend::Cluster).unwrap_or_default();
+    session(&data.join("sketches/small-range-512.png"), &data.join("dems"), cache)
+        .block_size(2)
+        .backend(backend)
+        .build()
+        .and_then(|s| s.run())
         .map(|o| encode_tiff_f32(o.terrain()).unwrap())
         .map_err(|e| e.to_string())
 }

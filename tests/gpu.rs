@@ -3,9 +3,10 @@
 //! worker. Skips, saying so, where no Vulkan adapter can be had at all.
 
 use ridgeline::cluster::{Cluster, ClusterConfig};
-use ridgeline::pipeline::{run_job, SynthConfig, SynthReport};
+use ridgeline::session::Backend;
+use ridgeline::SynthReport;
 use ridgeline_terrain::io::encode_tiff_f32;
-use ridgeline_tests::{shared_data, temp_dir, WorkerProc};
+use ridgeline_tests::{session, shared_data, temp_dir, WorkerProc};
 use ridgeline_worker::gpu::{GpuContext, GpuError, GpuMode};
 
 fn job(
@@ -14,8 +15,15 @@ fn job(
     gpu: GpuMode,
     cluster: Option<std::sync::Arc<Cluster>>,
 ) -> (Vec<u8>, SynthReport) {
-    let cfg = SynthConfig { gpu, cluster, cache_dir: Some(cache.to_path_buf()), ..Default::default() };
-    let out = run_job(&data.join("sketches/small-range-512.png"), &data.join("dems"), &cfg).expect("job");
+    let backend = match cluster {
+        Some(c) => Backend::Cluster(c),
+        None => Backend::InProcess { gpu, shards: 1 },
+    };
+    let out = session(&data.join("sketches/small-range-512.png"), &data.join("dems"), cache)
+        .backend(backend)
+        .build()
+        .and_then(|s| s.run())
+        .expect("job");
     (encode_tiff_f32(out.terrain()).unwrap(), out.report)
 }
 

@@ -2,11 +2,10 @@
 //! that offers no ridges at all for a sketch that asks for one.
 
 use ridgeline::evaluation::quality::adherence;
-use ridgeline::pipeline::{run_job, SynthConfig};
 use ridgeline_terrain::grid::Grid;
 use ridgeline_terrain::outputs::write_heightfield_with_cell;
 use ridgeline_terrain::FeatureKind;
-use ridgeline_tests::temp_dir;
+use ridgeline_tests::{session, temp_dir};
 use std::path::Path;
 
 fn noise(x: usize, y: usize) -> f32 {
@@ -49,10 +48,9 @@ fn voids_in_exemplars_never_reach_the_output() {
     write_heightfield_with_cell(&lib.join("holey.tif"), &t, Some(90.0)).unwrap();
     let sk = d.join("sketch.png");
     sketch(&sk, true);
-    let cfg = SynthConfig { patch: 32, cache_dir: Some(d.join("cache")), ..Default::default() };
-    let out = run_job(&sk, &lib, &cfg).expect("synthesis");
+    let out = session(&sk, &lib, &d.join("cache")).patch_size(32).build().and_then(|s| s.run()).expect("synthesis");
     assert!(out.terrain().data.iter().all(|v| v.is_finite()), "a void was copied into the output");
-    assert!(out.report.ridge_patches > 0 && out.report.feature_patches_placed > 0);
+    assert!(out.report.ridge_patches > 0 && out.report.placement.placed > 0);
 }
 
 #[test]
@@ -70,20 +68,19 @@ fn a_ridge_with_no_ridge_in_the_library_falls_back_to_inverted_valleys() {
     write_heightfield_with_cell(&lib.join("valley.tif"), &t, Some(90.0)).unwrap();
     let sk = d.join("sketch.png");
     sketch(&sk, true);
-    let cfg = SynthConfig { patch: 32, cache_dir: Some(d.join("cache")), ..Default::default() };
-    let out = run_job(&sk, &lib, &cfg).expect("synthesis");
+    let out = session(&sk, &lib, &d.join("cache")).patch_size(32).build().and_then(|s| s.run()).expect("synthesis");
     assert_eq!(out.report.exemplars[0].feature_nodes[0], 0, "the library has no ridge candidates");
-    assert!(!out.report.fallbacks.is_empty(), "the fallback is reported");
-    assert!(out.report.fallbacks[0].contains("ridge"), "{:?}", out.report.fallbacks);
+    assert!(!out.report.placement.fallbacks.is_empty(), "the fallback is reported");
+    assert!(out.report.placement.fallbacks[0].contains("ridge"), "{:?}", out.report.placement.fallbacks);
     assert!(out.terrain().data.iter().all(|v| v.is_finite()));
     let a = adherence(
         out.terrain(),
-        out.sketch.graph(FeatureKind::Ridge),
+        out.output.sketch.graph(FeatureKind::Ridge),
         FeatureKind::Ridge,
         8.0,
         4,
         8,
-        &[out.sketch.graph(FeatureKind::Ridge), out.sketch.graph(FeatureKind::Valley)],
+        &[out.output.sketch.graph(FeatureKind::Ridge), out.output.sketch.graph(FeatureKind::Valley)],
     );
     assert!(a.fraction() >= 0.8, "inverted valleys make a ridge: {} of {}", a.matching, a.sampled);
 }

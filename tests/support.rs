@@ -1,7 +1,17 @@
 //! Helpers shared by the end-to-end tests: where the shared data lives, and
 //! temporary folders.
 
-use std::path::PathBuf;
+use ridgeline::session::{ExemplarSource, Session, SessionBuilder, SketchSource};
+use std::path::{Path, PathBuf};
+
+/// A session on a sketch file and an exemplar library (a folder or manifest), with
+/// its feature cache in `cache`; in process, writing no files unless told to.
+pub fn session(sketch: &Path, exemplars: &Path, cache: &Path) -> SessionBuilder {
+    Session::builder()
+        .sketch(SketchSource::File(sketch.to_path_buf()))
+        .exemplars(ExemplarSource::library(exemplars))
+        .cache_dir(Some(cache.to_path_buf()))
+}
 
 /// `../shared/data` beside the repository (or `$RIDGELINE_SHARED_DATA`), if present.
 pub fn shared_data() -> Option<PathBuf> {

@@ -3,16 +3,16 @@
 
 use ridgeline::canvas::{Canvas, Placement};
 use ridgeline::evaluation::quality::{adherence, max_gradient_jump};
-use ridgeline::pipeline::{run_job, SynthConfig, SynthOutput};
+use ridgeline::Finished;
 use ridgeline_terrain::io::encode_tiff_f32;
 use ridgeline_terrain::library::{load_exemplar, scan_library};
 use ridgeline_terrain::patch_geometry::{extract_patch, Variant};
 use ridgeline_terrain::FeatureKind;
-use ridgeline_tests::{shared_data, temp_dir};
+use ridgeline_tests::{session, shared_data, temp_dir};
 use std::sync::OnceLock;
 
 struct Cold {
-    out: SynthOutput,
+    out: Finished,
     cache: std::path::PathBuf,
 }
 
@@ -22,8 +22,11 @@ fn cold_run() -> Option<&'static Cold> {
     RUN.get_or_init(|| {
         let data = shared_data()?;
         let cache = temp_dir("e2e-cache");
-        let cfg = SynthConfig { threads: 2, cache_dir: Some(cache.clone()), ..Default::default() };
-        let out = run_job(&data.join("sketches/small-range-512.png"), &data.join("dems"), &cfg).expect("synthesis");
+        let out = session(&data.join("sketches/small-range-512.png"), &data.join("dems"), &cache)
+            .threads(2)
+            .build()
+            .and_then(|s| s.run())
+            .expect("synthesis");
         Some(Cold { out, cache })
     })
     .as_ref()
@@ -40,12 +43,12 @@ fn full_run_fills_every_pixel_and_follows_the_sketch() {
     for kind in FeatureKind::BOTH {
         let a = adherence(
             out.terrain(),
-            out.sketch.graph(kind),
+            out.output.sketch.graph(kind),
             kind,
             16.0,
             4,
             8,
-            &[out.sketch.graph(FeatureKind::Ridge), out.sketch.graph(FeatureKind::Valley)],
+            &[out.output.sketch.graph(FeatureKind::Ridge), out.output.sketch.graph(FeatureKind::Valley)],
         );
         assert!(a.sampled >= 50, "{kind:?}: only {} samples", a.sampled);
         assert!(
@@ -62,8 +65,11 @@ fn same_bytes_for_one_and_two_threads_and_with_a_warm_cache() {
     let Some(cold) = cold_run() else { return };
     let data = shared_data().unwrap();
     assert_eq!(cold.out.report.cache_hits, 0, "the first run starts from an empty cache");
-    let cfg = SynthConfig { threads: 1, cache_dir: Some(cold.cache.clone()), ..Default::default() };
-    let warm = run_job(&data.join("sketches/small-range-512.png"), &data.join("dems"), &cfg).expect("synthesis");
+    let warm = session(&data.join("sketches/small-range-512.png"), &data.join("dems"), &cold.cache)
+        .threads(1)
+        .build()
+        .and_then(|s| s.run())
+        .expect("synthesis");
     assert_eq!(warm.report.cache_hits, 16, "the second run reads every exemplar's features from the cache");
     let a = encode_tiff_f32(cold.out.terrain()).unwrap();
     let b = encode_tiff_f32(warm.terrain()).unwrap();
@@ -74,8 +80,11 @@ fn same_bytes_for_one_and_two_threads_and_with_a_warm_cache() {
 fn a_different_seed_gives_a_different_terrain() {
     let Some(cold) = cold_run() else { return };
     let data = shared_data().unwrap();
-    let cfg = SynthConfig { seed: 7, cache_dir: Some(cold.cache.clone()), ..Default::default() };
-    let other = run_job(&data.join("sketches/small-range-512.png"), &data.join("dems"), &cfg).expect("synthesis");
+    let other = session(&data.join("sketches/small-range-512.png"), &data.join("dems"), &cold.cache)
+        .seed(7)
+        .build()
+        .and_then(|s| s.run())
+        .expect("synthesis");
     // not a different rounding: a visibly different terrain
     let changed = other.terrain().data.iter().zip(&cold.out.terrain().data).filter(|(a, b)| (*a - *b).abs() > 1.0).count();
     let frac = changed as f64 / other.terrain().data.len() as f64;
@@ -126,10 +135,13 @@ fn a_sketch_without_strokes_is_filled_by_hole_filling_alone() {
     let sketch = image::GrayImage::from_pixel(160, 120, image::Luma([128u8]));
     let sketch_path = dir.join("blank.png");
     sketch.save(&sketch_path).unwrap();
-    let cfg = SynthConfig { patch: 32, cache_dir: Some(dir.join("cache")), ..Default::default() };
-    let out = run_job(&sketch_path, &data.join("dems"), &cfg).expect("synthesis");
+    let out = session(&sketch_path, &data.join("dems"), &dir.join("cache"))
+        .patch_size(32)
+        .build()
+        .and_then(|s| s.run())
+        .expect("synthesis");
     assert_eq!(out.report.ridge_patches + out.report.valley_patches, 0);
-    assert!(out.report.hole_fills > 0);
+    assert!(out.report.filling.fills > 0);
     assert!(out.terrain().data.iter().all(|v| v.is_finite()));
 }
 
@@ -138,25 +150,24 @@ fn batched_round_two_gives_the_sequential_result() {
     let Some(cold) = cold_run() else { return };
     let data = shared_data().unwrap();
     let run = |max_batch: usize| {
-        let cfg = SynthConfig {
-            threads: 2,
-            block: 4,
-            max_batch,
-            keep_features_only: true,
-            cache_dir: Some(cold.cache.clone()),
-            ..Default::default()
-        };
-        run_job(&data.join("sketches/mixed-1024.png"), &data.join("dems"), &cfg).expect("synthesis")
+        session(&data.join("sketches/mixed-1024.png"), &data.join("dems"), &cold.cache)
+            .threads(2)
+            .block_size(4)
+            .max_batch(max_batch)
+            .keep_features_only(true)
+            .build()
+            .and_then(|s| s.run())
+            .expect("synthesis")
     };
     let (one, batched) = (run(1), run(0));
     eprintln!(
         "round 2: {} batches one at a time, {} batched, for {} user patches",
-        one.report.placement_batches,
-        batched.report.placement_batches,
+        one.report.placement.batches,
+        batched.report.placement.batches,
         one.report.ridge_patches + one.report.valley_patches
     );
-    assert!(batched.report.placement_batches < one.report.placement_batches, "batches hold several user patches");
-    let f = |o: &SynthOutput| encode_tiff_f32(o.features_only.as_ref().unwrap()).unwrap();
+    assert!(batched.report.placement.batches < one.report.placement.batches, "batches hold several user patches");
+    let f = |o: &Finished| encode_tiff_f32(o.output.features_only.as_ref().unwrap()).unwrap();
     assert!(f(&one) == f(&batched), "feature placement differs from one user patch at a time");
     assert!(encode_tiff_f32(one.terrain()).unwrap() == encode_tiff_f32(batched.terrain()).unwrap());
 }
@@ -214,8 +225,12 @@ fn no_straight_seam_where_hole_filling_tiles_meet() {
     for (name, sketch) in [("blank", blank), ("stroked", stroked)] {
         let sketch_path = dir.join(format!("{name}.png"));
         sketch.save(&sketch_path).unwrap();
-        let cfg = SynthConfig { patch, threads: 2, cache_dir: Some(dir.join("cache")), ..Default::default() };
-        let out = run_job(&sketch_path, &data.join("dems"), &cfg).expect("synthesis");
+        let out = session(&sketch_path, &data.join("dems"), &dir.join("cache"))
+            .patch_size(patch)
+            .threads(2)
+            .build()
+            .and_then(|s| s.run())
+            .expect("synthesis");
         let h = out.terrain();
         assert!(h.data.iter().all(|v| v.is_finite()));
         let side = ridgeline::stages::hole_filling::tile_side(h.width, h.height, patch);

@@ -8,10 +8,11 @@
 //! and merge overheads, not the speed-up of a real fleet; the model below extrapolates.
 
 use ridgeline::cluster::{Cluster, ClusterConfig};
-use ridgeline::pipeline::{run_job, SynthConfig, SynthReport};
+use ridgeline::session::Backend;
+use ridgeline::SynthReport;
 mod common;
 
-use common::{median, runs, shared_data};
+use common::{median, runs, shared_data, synth};
 use std::collections::BTreeMap;
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
@@ -70,9 +71,9 @@ fn run(sketch: &Path, dems: &Path, cache: &Path, workers: &[Worker]) -> Run {
         };
         Cluster::connect(cfg).expect("cluster")
     });
-    let cfg = SynthConfig { cluster: cluster.clone(), cache_dir: Some(cache.to_path_buf()), ..Default::default() };
+    let backend = cluster.clone().map(Backend::Cluster).unwrap_or_default();
     let t = std::time::Instant::now();
-    let out = run_job(sketch, dems, &cfg).expect("synthesis");
+    let out = synth(sketch, dems, |b| b.cache_dir(Some(cache.to_path_buf())).backend(backend));
     let total = t.elapsed().as_secs_f64();
     let bytes = cluster
         .map(|c| {
@@ -106,7 +107,7 @@ fn main() {
         for _ in 0..runs {
             let r = run(&sketch, &dems, &cache, &workers);
             totals.push(r.total);
-            waits.push(r.report.wait_for_workers_s);
+            waits.push(r.report.placement.wait_s);
             let ups = (r.report.ridge_patches + r.report.valley_patches).max(1) as f64;
             bytes.push(r.bytes as f64 / ups);
             for s in &r.report.stages {
@@ -132,8 +133,8 @@ fn main() {
         summary.insert(n, (tm, wm, bm, placement));
         if n == 0 {
             inproc_costs = (r1, placement - wm, rep.ridge_patches + rep.valley_patches, rep.exemplars.len());
-            let batch = (rep.ridge_patches + rep.valley_patches) as f64 / rep.placement_batches.max(1) as f64;
-            fill_costs = (rep.fill_scoring_s, rep.fill_coordinator_core_s, rep.hole_fills, rep.width * rep.height, batch);
+            let batch = (rep.ridge_patches + rep.valley_patches) as f64 / rep.placement.batches.max(1) as f64;
+            fill_costs = (rep.filling.score_s, rep.filling.coordinator_core_s, rep.filling.fills, rep.width * rep.height, batch);
         }
     }
     // Scaling model. Worker work (scoring) grows with user patches x sources and fill

@@ -1,6 +1,16 @@
 //! Helpers shared by the benchmarks.
 
-use std::path::PathBuf;
+use ridgeline::session::{ExemplarSource, Session, SessionBuilder, SketchSource};
+use ridgeline::Finished;
+use std::path::{Path, PathBuf};
+
+/// Runs one job through a session on a sketch file and a library (in process, writing
+/// no files, unless `setup` says otherwise).
+#[allow(dead_code)]
+pub fn synth(sketch: &Path, exemplars: &Path, setup: impl FnOnce(SessionBuilder) -> SessionBuilder) -> Finished {
+    let b = Session::builder().sketch(SketchSource::File(sketch.to_path_buf())).exemplars(ExemplarSource::library(exemplars));
+    setup(b).build().and_then(|s| s.run()).expect("synthesis")
+}
 
 /// Median of a sample (sorts it).
 #[allow(dead_code)] // not every benchmark uses every helper

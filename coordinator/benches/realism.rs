@@ -24,10 +24,9 @@
 
 mod common;
 
-use common::shared_data;
+use common::{shared_data, synth};
 use ridgeline::evaluation::quality::seam_score;
 use ridgeline::evaluation::{self, landforms, spectrum, Evaluation, Inputs};
-use ridgeline::pipeline::{run_job, SynthConfig};
 use ridgeline_terrain::grid::{Grid, Heightfield};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -283,18 +282,17 @@ fn main() {
         let path = dir.join(format!("{name}.png"));
         image::GrayImage::from_raw(SIDE as u32, SIDE as u32, sk.data.clone()).expect("sketch").save(&path).expect("save");
         let fit_sketch = std::env::var_os("RIDGELINE_BENCH_NO_FIT").is_none();
-        let cfg = SynthConfig { cache_dir: Some(cache.clone()), seed, fit_sketch, ..Default::default() };
         let t = Instant::now();
-        let out = run_job(&path, lib, &cfg).expect("synthesis");
+        let out = synth(&path, lib, |b| b.cache_dir(Some(cache.clone())).seed(seed).fit_sketch(fit_sketch));
         let seconds = t.elapsed().as_secs_f64();
         let cell = out.report.cell_size_m;
-        let prov = evaluation::provenance_of(&out);
+        let prov = evaluation::provenance_of(&out.output.canvas, &out.report.exemplars);
         let sources = evaluation::load_sources(lib, cell, Some(&prov)).expect("sources");
         let e = evaluation::evaluate(&Inputs {
             terrain: out.terrain(),
             cell_m: cell.unwrap_or(90.0),
-            sketch: Some(&out.sketch),
-            patch: cfg.patch,
+            sketch: Some(&out.output.sketch),
+            patch: out.report.patch,
             sources: &sources,
             provenance: Some(&prov),
         });

@@ -9,10 +9,10 @@
 //! RIDGELINE_BENCH_GPU: the shards' backend as `--gpu` takes it, default auto: a real
 //! GPU where there is one). Each job also prints its shard's backend and busy seconds.
 
-use ridgeline::pipeline::{run_job, SynthConfig};
+use ridgeline::session::{Backend, SessionBuilder};
 mod common;
 
-use common::shared_data;
+use common::{shared_data, synth};
 use ridgeline_terrain::grid::Grid;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -35,16 +35,19 @@ fn tiled_sketch(src: &Grid<u8>, n: usize) -> Grid<u8> {
     out
 }
 
-fn cfg(cache: &Path) -> SynthConfig {
+/// The bench's settings: `RIDGELINE_BENCH_THREADS`, `RIDGELINE_BENCH_GPU`.
+fn setup(cache: &Path) -> impl FnOnce(SessionBuilder) -> SessionBuilder + '_ {
     let threads = std::env::var("RIDGELINE_BENCH_THREADS").ok().and_then(|v| v.parse().ok()).unwrap_or(0);
     let gpu = std::env::var("RIDGELINE_BENCH_GPU").unwrap_or_else(|_| "auto".into()).parse().expect("RIDGELINE_BENCH_GPU");
-    SynthConfig { cache_dir: Some(cache.to_path_buf()), threads, max_side: 65536, gpu, ..Default::default() }
+    move |b| {
+        b.cache_dir(Some(cache.to_path_buf())).threads(threads).max_side(65536).backend(Backend::InProcess { gpu, shards: 1 })
+    }
 }
 
 /// Child mode: one job on `sketch`, printing one line per stage and the peak.
 fn child(sketch: &Path, dems: &Path, cache: &Path) {
     let t = Instant::now();
-    let out = run_job(sketch, dems, &cfg(cache)).expect("synthesis");
+    let out = synth(sketch, dems, setup(cache));
     let total = t.elapsed().as_secs_f64();
     let r = &out.report;
     let mp = (r.width * r.height) as f64 / 1e6;
@@ -53,9 +56,9 @@ fn child(sketch: &Path, dems: &Path, cache: &Path) {
         r.width,
         r.height,
         r.ridge_patches + r.valley_patches,
-        r.placement_batches,
-        r.hole_fills,
-        r.fill_waves
+        r.placement.batches,
+        r.filling.fills,
+        r.filling.waves
     );
     for s in &r.stages {
         let note = if s.stage == "round1_scoring" { "  (overlaps feature_placement)" } else { "" };
@@ -99,7 +102,7 @@ fn main() {
         std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)
     );
     // fill the feature cache once
-    run_job(&data.join("sketches/mixed-1024.png"), &dems, &cfg(&cache)).expect("warm-up run");
+    synth(&data.join("sketches/mixed-1024.png"), &dems, setup(&cache));
     let mut peaks: Vec<(u64, u64)> = Vec::new();
     for side in sizes {
         let n = side.div_ceil(src.width).max(1);

@@ -6,10 +6,16 @@
 //! `cargo bench -p ridgeline --bench synth` (RIDGELINE_BENCH_RUNS sets the run count,
 //! default 5; RIDGELINE_BENCH_SKETCHES a comma-separated subset of sketch names).
 
-use ridgeline::pipeline::{run_job, SynthConfig};
 mod common;
 
-use common::{median, runs, shared_data};
+use common::{median, runs, shared_data, synth};
+use ridgeline::session::SessionBuilder;
+use std::path::Path;
+
+/// A setting: the feature cache (none: the cold baseline) and the thread count.
+fn setup((cache, threads): (Option<&Path>, usize)) -> impl FnOnce(SessionBuilder) -> SessionBuilder + '_ {
+    move |b| b.cache_dir(cache.map(Path::to_path_buf)).threads(threads)
+}
 use std::collections::BTreeMap;
 use std::time::Instant;
 
@@ -26,14 +32,14 @@ fn main() {
     );
     for name in &sketches {
         let sketch = data.join("sketches").join(format!("{name}.png"));
-        let settings: [(&str, SynthConfig); 3] = [
-            ("warm cache, all cores", SynthConfig { cache_dir: Some(cache.clone()), ..Default::default() }),
-            ("warm cache, 1 thread", SynthConfig { cache_dir: Some(cache.clone()), threads: 1, ..Default::default() }),
-            ("no cache (baseline), all cores", SynthConfig { cache_dir: None, ..Default::default() }),
+        let settings: [(&str, Option<&Path>, usize); 3] = [
+            ("warm cache, all cores", Some(&cache), 0),
+            ("warm cache, 1 thread", Some(&cache), 1),
+            ("no cache (baseline), all cores", None, 0),
         ];
         // fill the cache once
-        run_job(&sketch, &data.join("dems"), &settings[0].1).expect("warm-up run");
-        for (label, cfg) in &settings {
+        synth(&sketch, &data.join("dems"), setup((Some(&cache), 0)));
+        for &(label, cache, threads) in &settings {
             let mut stages: BTreeMap<&'static str, Vec<f64>> = BTreeMap::new();
             let mut order: Vec<&'static str> = Vec::new();
             let mut totals = Vec::new();
@@ -41,14 +47,14 @@ fn main() {
             let mut counts = (0, 0, 0, 0);
             for _ in 0..runs {
                 let t = Instant::now();
-                let out = run_job(&sketch, &data.join("dems"), cfg).expect("synthesis");
+                let out = synth(&sketch, &data.join("dems"), setup((cache, threads)));
                 totals.push(t.elapsed().as_secs_f64());
-                wait.push(out.report.wait_for_workers_s);
+                wait.push(out.report.placement.wait_s);
                 counts = (
                     out.report.ridge_patches,
                     out.report.valley_patches,
-                    out.report.hole_fills,
-                    out.report.candidates_per_user_patch,
+                    out.report.filling.fills,
+                    out.report.placement.candidates_per_user_patch,
                 );
                 for s in &out.report.stages {
                     if !order.contains(&s.stage) {

@@ -231,7 +231,7 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
     let report = finished.report;
     let total: f64 = report.stages.iter().filter(|s| s.stage != "round1_scoring").map(|s| s.seconds).sum();
     tracing::info!(out = %a.out.display(), seconds = total, "terrain written");
-    for f in &report.fallbacks {
+    for f in &report.placement.fallbacks {
         tracing::warn!(note = %f, "fallback");
     }
     if !human {
@@ -244,7 +244,7 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
         report.height,
         report.ridge_patches,
         report.valley_patches,
-        report.hole_fills,
+        report.filling.fills,
         total
     );
     if report.shards.len() > 1 || report.shards.iter().any(|s| s.backend != "cpu") {
@@ -262,7 +262,7 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
             );
         }
     }
-    for f in &report.fallbacks {
+    for f in &report.placement.fallbacks {
         eprintln!("note: {f}");
     }
     for s in &report.skipped_exemplars {

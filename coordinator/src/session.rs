@@ -5,8 +5,10 @@
 //! output files — and [`SessionBuilder::build`] validates all of it once, before any
 //! work: a bad sketch, an unknown exemplar or an output that would overwrite an input
 //! is refused there with the file and the problem named. [`Session::run`] then runs
-//! the [`crate::pipeline`], reports through a [`JobProgress`], stops at a
-//! [`CancelToken`], and writes the outputs all together ([`crate::outputs`]).
+//! the [`crate::job::pipeline`], reports through a [`JobProgress`], stops at a
+//! [`CancelToken`], evaluates the terrain when a report is asked for, and writes the
+//! outputs all together ([`crate::outputs`]). A session is the only way to run a job:
+//! the command line, the service, the example, the tests and the benches all build one.
 //!
 //! ```no_run
 //! use ridgeline::session::{Session, SketchSource, ExemplarSource};
@@ -21,12 +23,17 @@
 //! # Ok::<(), ridgeline::session::SessionError>(())
 //! ```
 
+use crate::job::pipeline::{synthesize, JobInputs, SynthOutput};
+use crate::job::report::SynthReport;
+use crate::job::settings::JobSettings;
+use crate::job::stage_runner::StageRunner;
+use crate::job::SynthError;
 use crate::outputs::OutputFiles;
-use crate::pipeline::{SynthConfig, SynthError, SynthOutput, SynthReport};
-use crate::progress::{CancelToken, JobProgress, Progress};
+use crate::progress::{CancelToken, JobProgress, Progress, Stage};
+pub use crate::stages::exemplars::{Backend, ExemplarSource};
 use ridgeline_terrain::grid::{Grid, Heightfield};
+use ridgeline_terrain::library::common_cell_size;
 use ridgeline_terrain::TerrainError;
-use ridgeline_worker::GpuMode;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -132,37 +139,6 @@ impl StrokeSketch {
     }
 }
 
-/// Where the exemplars come from.
-#[derive(Debug, Clone)]
-pub enum ExemplarSource {
-    /// A folder of DEMs or a `manifest.toml`; `only`: use just these file names.
-    Library { path: PathBuf, only: Option<Vec<String>> },
-    /// Heightfields in memory, by name: heights in metres, all at `cell_size_m`.
-    InMemory { cell_size_m: Option<f32>, exemplars: Vec<(String, Heightfield)> },
-}
-
-impl ExemplarSource {
-    /// The whole library of a folder or manifest.
-    pub fn library(path: impl Into<PathBuf>) -> Self {
-        ExemplarSource::Library { path: path.into(), only: None }
-    }
-}
-
-/// Where user patches are scored.
-#[derive(Debug, Clone)]
-pub enum Backend {
-    /// Shards in this process, on the CPU or the GPU.
-    InProcess { gpu: GpuMode, shards: usize },
-    /// A fleet of gRPC workers.
-    Fleet(crate::cluster::ClusterConfig),
-}
-
-impl Default for Backend {
-    fn default() -> Self {
-        Backend::InProcess { gpu: GpuMode::Auto, shards: 1 }
-    }
-}
-
 /// Why a session could not be built or run.
 #[derive(Debug, thiserror::Error)]
 pub enum SessionError {
@@ -189,8 +165,9 @@ pub struct SessionBuilder {
     backend: Backend,
     size: Option<(usize, usize)>,
     outputs: Option<OutputFiles>,
-    cfg: SynthConfig,
+    settings: JobSettings,
     progress: Option<Arc<dyn JobProgress>>,
+    cancel: CancelToken,
     /// Other files the job reads, which no output may overwrite.
     inputs: Vec<(String, PathBuf)>,
 }
@@ -203,17 +180,27 @@ pub struct Session {
     exemplars: ExemplarSource,
     backend: Backend,
     outputs: Option<OutputFiles>,
-    cfg: SynthConfig,
+    settings: JobSettings,
+    progress: Progress,
+    cancel: CancelToken,
 }
 
 /// A finished job.
 pub struct Finished {
     /// The terrain, the canvas and what the stages saw.
     pub output: SynthOutput,
-    /// The report as written (with the evaluation when a report file was asked for).
+    /// What the job did (as written, with the evaluation when a report file was asked
+    /// for).
     pub report: SynthReport,
     /// The files written, in write order.
     pub files: Vec<PathBuf>,
+}
+
+impl Finished {
+    /// The finished terrain (no copy).
+    pub fn terrain(&self) -> &Heightfield {
+        self.output.terrain()
+    }
 }
 
 impl Session {
@@ -241,53 +228,53 @@ impl SessionBuilder {
         self
     }
     pub fn seed(mut self, seed: u64) -> Self {
-        self.cfg.seed = seed;
+        self.settings.seed = seed;
         self
     }
     /// Patch side in cells (even, 8 to 512; default 64).
     pub fn patch_size(mut self, p: usize) -> Self {
-        self.cfg.patch = p;
+        self.settings.patch = p;
         self
     }
     /// Worker threads of this process (0 = all cores).
     pub fn threads(mut self, n: usize) -> Self {
-        self.cfg.threads = n;
+        self.settings.threads = n;
         self
     }
     /// Output cell size in metres (default: the library's most common).
     pub fn cell_size(mut self, m: f32) -> Self {
-        self.cfg.cell_size = Some(m);
+        self.settings.cell_size = Some(m);
         self
     }
     /// The feature cache folder (`None`: no cache).
     pub fn cache_dir(mut self, d: Option<PathBuf>) -> Self {
-        self.cfg.cache_dir = d;
+        self.settings.cache_dir = d;
         self
     }
     /// Largest accepted image side.
     pub fn max_side(mut self, s: u32) -> Self {
-        self.cfg.max_side = s;
+        self.settings.max_side = s;
         self
     }
     /// Memory budget in bytes (default: what is available now).
     pub fn max_memory(mut self, bytes: Option<u64>) -> Self {
-        self.cfg.max_memory = bytes;
+        self.settings.max_memory = bytes;
         self
     }
     /// User patches per round-1 block.
     pub fn block_size(mut self, n: usize) -> Self {
-        self.cfg.block = n;
+        self.settings.block = n;
         self
     }
     /// Keep the terrain before hole filling (`SynthOutput::features_only`).
     pub fn keep_features_only(mut self, keep: bool) -> Self {
-        self.cfg.keep_features_only = keep;
+        self.settings.keep_features_only = keep;
         self
     }
     /// Deform the finished terrain so every sketched ridge is the crest of its
     /// cross-section and every valley its floor (`stages::sketch_fit`; default on).
     pub fn fit_sketch(mut self, fit: bool) -> Self {
-        self.cfg.fit_sketch = fit;
+        self.settings.fit_sketch = fit;
         self
     }
     pub fn progress(mut self, p: Arc<dyn JobProgress>) -> Self {
@@ -295,7 +282,13 @@ impl SessionBuilder {
         self
     }
     pub fn cancel(mut self, c: CancelToken) -> Self {
-        self.cfg.cancel = c;
+        self.cancel = c;
+        self
+    }
+    /// Largest round-2 batch of non-interacting user patches (0, the default: no
+    /// limit; 1: one at a time). The output does not depend on it.
+    pub fn max_batch(mut self, n: usize) -> Self {
+        self.settings.max_batch = n;
         self
     }
     /// Writes the terrain to `path` (format by extension) and nothing else.
@@ -315,8 +308,8 @@ impl SessionBuilder {
 
     /// Validates the whole job and reads the sketch; nothing is written.
     pub fn build(self) -> Result<Session, SessionError> {
-        let mut cfg = self.cfg;
-        crate::pipeline::validate(&cfg)?;
+        let mut cfg = self.settings;
+        cfg.validate()?;
         let invalid = |m: String| Err(SessionError::Invalid(m));
         if let Some(o) = &self.outputs {
             o.check_paths()?;
@@ -378,13 +371,13 @@ impl SessionBuilder {
                 }
             }
         }
-        if let Backend::Fleet(c) = &self.backend {
-            if c.workers.is_empty() {
-                return invalid("a fleet backend with no worker addresses".into());
-            }
-            if matches!(exemplars, ExemplarSource::InMemory { .. }) {
+        match &self.backend {
+            Backend::Fleet(c) if c.workers.is_empty() => return invalid("a fleet backend with no worker addresses".into()),
+            Backend::Fleet(_) | Backend::Cluster(_) if matches!(exemplars, ExemplarSource::InMemory { .. }) => {
                 return invalid("exemplars in memory run on in-process shards only (a fleet loads them from files)".into());
             }
+            Backend::InProcess { shards: 0, .. } => return invalid("in-process shards: give at least one".into()),
+            _ => {}
         }
         if let Some(o) = &self.outputs {
             let mut inputs: Vec<(&str, &Path)> = Vec::new();
@@ -398,14 +391,17 @@ impl SessionBuilder {
             };
             o.check(sketch.width, sketch.height, &inputs, library)?;
         }
-        if let Some(p) = self.progress {
-            cfg.progress = Progress::new(p);
-        }
-        if let Backend::InProcess { gpu, shards } = &self.backend {
-            cfg.gpu = *gpu;
-            cfg.shards = (*shards).max(1);
-        }
-        Ok(Session { sketch, sketch_path, exemplars, backend: self.backend, outputs: self.outputs, cfg })
+        let progress = self.progress.map(Progress::new).unwrap_or_default();
+        Ok(Session {
+            sketch,
+            sketch_path,
+            exemplars,
+            backend: self.backend,
+            outputs: self.outputs,
+            settings: cfg,
+            progress,
+            cancel: self.cancel,
+        })
     }
 }
 
@@ -428,50 +424,91 @@ impl Session {
         &self.sketch
     }
 
-    /// Runs the job and writes its outputs (if any were given).
+    /// Runs the job: its stages (`job::pipeline`), then, when outputs were given, the
+    /// evaluation (with a report file) and the writing of every file.
     pub fn run(self) -> Result<Finished, SessionError> {
-        let mut cfg = self.cfg;
-        if let Backend::Fleet(c) = &self.backend {
-            cfg.cluster = Some(crate::cluster::Cluster::connect(c.clone()).map_err(|e| SessionError::Invalid(format!("{e:#}")))?);
-        }
-        let pool = crate::pipeline::thread_pool(cfg.threads)?;
-        let output = match &self.exemplars {
-            ExemplarSource::Library { path, only } => {
-                let sketch_name = self.sketch_path.clone().unwrap_or_else(|| PathBuf::from("the sketch"));
-                let _job = tracing::info_span!(
-                    "synth",
-                    sketch = %sketch_name.display(),
-                    exemplars = %path.display(),
-                    seed = cfg.seed
-                )
-                .entered();
-                crate::pipeline::check_memory(&sketch_name, self.sketch.width, self.sketch.height, path, &cfg)?;
-                crate::pipeline::run_on_library(self.sketch, path, only.as_deref(), &cfg, &pool)?
+        let set = &self.settings;
+        let pool = set.thread_pool()?;
+        let sketch_name = self.sketch_path.clone().unwrap_or_else(|| PathBuf::from("the sketch"));
+        let _job = match &self.exemplars {
+            ExemplarSource::Library { path, .. } => {
+                tracing::info_span!("synth", sketch = %sketch_name.display(), exemplars = %path.display(), seed = set.seed)
             }
             ExemplarSource::InMemory { exemplars, .. } => {
-                let _job = tracing::info_span!("synth", exemplars = exemplars.len(), seed = cfg.seed).entered();
-                crate::pipeline::run_on_heightfields(self.sketch, exemplars, &cfg, &pool)?
+                tracing::info_span!("synth", exemplars = exemplars.len(), seed = set.seed)
             }
+        }
+        .entered();
+        self.check_memory(&sketch_name)?;
+        let cluster = match &self.backend {
+            Backend::Fleet(c) => {
+                Some(crate::cluster::Cluster::connect(c.clone()).map_err(|e| SessionError::Invalid(format!("{e:#}")))?)
+            }
+            Backend::Cluster(c) => Some(c.clone()),
+            Backend::InProcess { .. } => None,
         };
-        let mut report = output.report.clone();
+        let mut run = StageRunner::new(&pool, &self.progress, &self.cancel);
+        let job = JobInputs {
+            sketch: self.sketch.clone(),
+            exemplars: &self.exemplars,
+            backend: &self.backend,
+            cluster: cluster.as_ref(),
+            settings: set,
+        };
+        let (output, mut report) = synthesize(&mut run, job)?;
+        if let (Some(cluster), Some(cache)) = (&cluster, &set.cache_dir) {
+            // the next job's shards are sized by what this one measured
+            if let Err(e) = cluster.rates.save(cache) {
+                tracing::warn!(cache = %cache.display(), error = %e, "worker throughput not saved");
+            }
+        }
         let files = match &self.outputs {
             None => Vec::new(),
             Some(o) => {
                 let wants_sources = o.report.is_some() || o.debug_dir.is_some();
-                let sources = if wants_sources { Some(sources_of(&self.exemplars, &output)?) } else { None };
-                o.write(&output, &mut report, sources.as_deref(), &cfg.progress)?
+                let sources = if wants_sources { Some(sources_of(&self.exemplars, &output, &report)?) } else { None };
+                if let (Some(_), Some(sources)) = (&o.report, &sources) {
+                    let e = run.run(Stage::Evaluation, |_| Ok(crate::outputs::evaluate(&output, &report, sources)))?;
+                    report.evaluation = Some(e);
+                }
+                let staged = run.run(Stage::Write, |cx| Ok(o.stage(&output, &report, sources.as_deref(), cx)?))?;
+                report.stages = run.timings().to_vec();
+                report.peak_rss_bytes = crate::job::report::peak_rss_bytes();
+                o.commit(staged, &report)?
             }
         };
         Ok(Finished { output, report, files })
     }
+
+    /// Refuses, before any work, a job whose estimated peak memory exceeds its budget.
+    /// A library that cannot be read is left for the exemplars stage to report.
+    fn check_memory(&self, sketch: &Path) -> Result<(), SessionError> {
+        let (width, height) = (self.sketch.width as u64, self.sketch.height as u64);
+        let in_process = matches!(self.backend, Backend::InProcess { .. });
+        let library_cells: u64 = match self.exemplars.specs() {
+            Some(Ok(specs)) if in_process => {
+                let cell = self.settings.cell_size.or_else(|| common_cell_size(&specs));
+                specs.iter().map(|s| s.cells_at(cell)).sum()
+            }
+            _ => 0,
+        };
+        let est = crate::job::memory_budget::check(sketch, width, height, library_cells, self.settings.max_memory)
+            .map_err(SynthError::Memory)?;
+        tracing::info!(estimated_peak_mb = est.total() >> 20, "memory estimate");
+        Ok(())
+    }
 }
 
 /// The exemplars that supplied the output, at its cell size.
-fn sources_of(exemplars: &ExemplarSource, out: &SynthOutput) -> Result<Vec<(String, Heightfield)>, SessionError> {
-    let provenance = crate::evaluation::provenance_of(out);
+fn sources_of(
+    exemplars: &ExemplarSource,
+    out: &SynthOutput,
+    report: &SynthReport,
+) -> Result<Vec<(String, Heightfield)>, SessionError> {
+    let provenance = crate::evaluation::provenance_of(&out.canvas, &report.exemplars);
     let used = |n: &str| provenance.placements.iter().any(|p| p.exemplar == n);
     Ok(match exemplars {
-        ExemplarSource::Library { path, .. } => crate::evaluation::load_sources(path, out.report.cell_size_m, Some(&provenance))?,
+        ExemplarSource::Library { path, .. } => crate::evaluation::load_sources(path, report.cell_size_m, Some(&provenance))?,
         ExemplarSource::InMemory { exemplars, .. } => exemplars.iter().filter(|(n, _)| used(n)).cloned().collect(),
     })
 }

@@ -212,7 +212,7 @@ pub struct SynthArgs {
     /// Memory budget (512M, 8G, 1.5GiB): a job estimated to need more is refused
     /// before any work, saying how much it needs. Default: the memory available now
     /// (MemAvailable, or the container's limit).
-    #[arg(long, value_parser = ridgeline::memory_budget::parse_size)]
+    #[arg(long, value_parser = ridgeline::job::memory_budget::parse_size)]
     pub max_memory: Option<u64>,
     /// Serve Prometheus metrics (GET /metrics) on this address while the job runs.
     #[arg(long)]

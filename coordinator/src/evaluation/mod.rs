@@ -224,13 +224,12 @@ pub fn read_provenance(json: &std::path::Path, cells: usize) -> Result<Provenanc
     Ok(Provenance { cells, placements })
 }
 
-/// A finished job's provenance.
-pub fn provenance_of(out: &crate::pipeline::SynthOutput) -> Provenance {
-    let name = |src: u32| out.report.exemplars.iter().find(|e| e.source == src).map(|e| e.name.clone()).unwrap_or_default();
+/// The provenance of a finished canvas whose sources are `exemplars`.
+pub fn provenance_of(canvas: &crate::canvas::Canvas, exemplars: &[ridgeline_terrain::shard::SourceInfo]) -> Provenance {
+    let name = |src: u32| exemplars.iter().find(|e| e.source == src).map(|e| e.name.clone()).unwrap_or_default();
     Provenance {
-        cells: out.canvas.provenance.data.clone(),
-        placements: out
-            .canvas
+        cells: canvas.provenance.data.clone(),
+        placements: canvas
             .placements
             .iter()
             .map(|p| PlacedPatch { exemplar: name(p.source), src_x: p.src_x, src_y: p.src_y, cx: p.cx, cy: p.cy })

@@ -24,11 +24,12 @@ pub const DEBUG_FILES: [&str; 7] = [
     "seams.png",
 ];
 
-use crate::pipeline::SynthOutput;
+use crate::job::pipeline::SynthOutput;
 use font8x8::UnicodeFonts;
 use image::{Rgb, RgbImage};
 use ridgeline_terrain::grid::{Grid, Heightfield};
 use ridgeline_terrain::io::{hillshade, write_atomic, write_rgb_png};
+use ridgeline_terrain::shard::SourceInfo;
 use ridgeline_terrain::FeatureKind;
 use std::path::Path;
 
@@ -94,12 +95,12 @@ fn sketch_overlay(out: &SynthOutput, sketch: &Grid<u8>) -> RgbImage {
     img
 }
 
-fn provenance_map(out: &SynthOutput) -> RgbImage {
+fn provenance_map(out: &SynthOutput, exemplars: &[SourceInfo]) -> RgbImage {
     let c = &out.canvas;
     let (w, h) = (c.provenance.width, c.provenance.height);
-    let names: Vec<String> = out.report.exemplars.iter().map(|e| e.name.clone()).collect();
+    let names: Vec<String> = exemplars.iter().map(|e| e.name.clone()).collect();
     let colour_of = |source: u32| -> [u8; 3] {
-        let i = out.report.exemplars.iter().position(|e| e.source == source).unwrap_or(names.len());
+        let i = exemplars.iter().position(|e| e.source == source).unwrap_or(names.len());
         palette(i)
     };
     let line_h = 10u32;
@@ -248,17 +249,17 @@ fn seams_view(out: &SynthOutput, cell: f32) -> RgbImage {
 pub fn write_debug_outputs(
     dir: &Path,
     out: &SynthOutput,
-    sketch: &Grid<u8>,
+    exemplars: &[SourceInfo],
     cell: f32,
     sources: Option<&[(String, Heightfield)]>,
 ) -> ridgeline_terrain::Result<()> {
     ridgeline_terrain::staging::create_output_dir(dir)
         .map_err(|source| ridgeline_terrain::TerrainError::Write { path: dir.to_path_buf(), cause: source.into() })?;
-    write_rgb_png(&dir.join("sketch_features.png"), &sketch_overlay(out, sketch))?;
+    write_rgb_png(&dir.join("sketch_features.png"), &sketch_overlay(out, &out.sketch_image))?;
     if let Some(f) = &out.features_only {
         write_rgb_png(&dir.join("features_only.png"), &hillshade(f, cell))?;
     }
-    write_rgb_png(&dir.join("provenance.png"), &provenance_map(out))?;
+    write_rgb_png(&dir.join("provenance.png"), &provenance_map(out, exemplars))?;
     let recs: Vec<PlacementRecord> = out
         .canvas
         .placements
@@ -266,7 +267,7 @@ pub fn write_debug_outputs(
         .enumerate()
         .map(|(id, p)| PlacementRecord {
             id,
-            exemplar: out.report.exemplars.iter().find(|e| e.source == p.source).map(|e| e.name.as_str()).unwrap_or("?"),
+            exemplar: exemplars.iter().find(|e| e.source == p.source).map(|e| e.name.as_str()).unwrap_or("?"),
             src_x: p.src_x,
             src_y: p.src_y,
             variant: p.variant,
@@ -282,7 +283,7 @@ pub fn write_debug_outputs(
     let cells: Vec<u8> = out.canvas.provenance.data.iter().flat_map(|c| c.to_le_bytes()).collect();
     write_atomic(&dir.join(crate::evaluation::PROVENANCE_CELLS), &cells)?;
     // the source that supplied most cells, at the output's cell size
-    let prov = crate::evaluation::provenance_of(out);
+    let prov = crate::evaluation::provenance_of(&out.canvas, exemplars);
     let main_source = sources.and_then(|sources| {
         let mut cells_of: std::collections::BTreeMap<&str, usize> = std::collections::BTreeMap::new();
         for &c in &prov.cells {

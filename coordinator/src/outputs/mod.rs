@@ -6,7 +6,9 @@
 
 pub mod debug;
 
-use crate::pipeline::{SynthOutput, SynthReport};
+use crate::job::pipeline::SynthOutput;
+use crate::job::report::SynthReport;
+use crate::job::stage_runner::StageContext;
 use ridgeline_terrain::grid::Heightfield;
 use ridgeline_terrain::outputs::{heightfield_files, TilePlan, OUTPUT_EXTENSIONS};
 use ridgeline_terrain::{Result, TerrainError};
@@ -141,48 +143,26 @@ impl OutputFiles {
         Ok(())
     }
 
-    /// Writes a finished job's files: all are staged first and appear together at
-    /// the end, or none does. `sources` (the exemplars at the output cell size) are
-    /// needed for the report's realism figures and the landform debug view; `report`
-    /// gains the evaluation and the write time.
-    pub fn write(
+    /// Stages a finished job's files (every one but the report, which records how long
+    /// this took): nothing appears until [`OutputFiles::commit`]. `sources` (the
+    /// exemplars at the output cell size) feed the landform debug view.
+    pub fn stage(
         &self,
         out: &SynthOutput,
-        report: &mut SynthReport,
+        report: &SynthReport,
         sources: Option<&[(String, Heightfield)]>,
-        progress: &crate::progress::Progress,
-    ) -> Result<Vec<PathBuf>> {
-        use crate::progress::Stage;
-        let cell = out.report.cell_size_m;
-        if self.report.is_some() {
-            if let Some(sources) = sources {
-                let te = std::time::Instant::now();
-                progress.report(Stage::Evaluation, 0, 1);
-                let provenance = crate::evaluation::provenance_of(out);
-                report.evaluation = Some(crate::evaluation::evaluate(&crate::evaluation::Inputs {
-                    terrain: out.terrain(),
-                    cell_m: cell.unwrap_or(90.0),
-                    sketch: Some(&out.sketch),
-                    patch: out.report.patch,
-                    sources,
-                    provenance: Some(&provenance),
-                }));
-                progress.report(Stage::Evaluation, 1, 1);
-                report.stages.push(crate::pipeline::StageTiming { stage: "evaluation", seconds: te.elapsed().as_secs_f64() });
-            }
-        }
-        let t = std::time::Instant::now();
-        let steps = 1 + [self.tiles.is_some(), self.preview.is_some(), self.debug_dir.is_some(), self.report.is_some()]
-            .iter()
-            .filter(|b| **b)
-            .count() as u64;
+        cx: &StageContext,
+    ) -> Result<Staged> {
+        let cell = report.cell_size_m;
+        let steps =
+            1 + [self.tiles.is_some(), self.preview.is_some(), self.debug_dir.is_some()].iter().filter(|b| **b).count() as u64;
         let mut step = 0;
         let mut advance = || {
             step += 1;
-            progress.report(Stage::Write, step, steps);
+            cx.progress(step, steps);
         };
-        progress.report(Stage::Write, 0, steps);
-        let staged = ridgeline_terrain::staging::Transaction::begin();
+        cx.progress(0, steps);
+        let transaction = ridgeline_terrain::staging::Transaction::begin();
         ridgeline_terrain::outputs::write_heightfield_with_cell(&self.terrain, out.terrain(), cell)?;
         for a in &self.also {
             ridgeline_terrain::outputs::write_heightfield_with_cell(a, out.terrain(), cell)?;
@@ -198,22 +178,46 @@ impl OutputFiles {
             advance();
         }
         if let Some(d) = &self.debug_dir {
-            debug::write_debug_outputs(d, out, &out.sketch_image, cell.unwrap_or(1.0), sources)?;
+            debug::write_debug_outputs(d, out, &report.exemplars, cell.unwrap_or(1.0), sources)?;
             advance();
         }
-        report.stages.push(crate::pipeline::StageTiming { stage: "write", seconds: t.elapsed().as_secs_f64() });
+        Ok(Staged { transaction })
+    }
+
+    /// Writes the report (when asked for) into the staged files and makes them all
+    /// appear together; an error leaves every existing file as it was.
+    pub fn commit(&self, staged: Staged, report: &SynthReport) -> Result<Vec<PathBuf>> {
         if let Some(p) = &self.report {
-            let bytes = serde_json::to_vec_pretty(&report).map_err(|e| TerrainError::Other(e.to_string()))?;
+            let bytes = serde_json::to_vec_pretty(report).map_err(|e| TerrainError::Other(e.to_string()))?;
             ridgeline_terrain::io::write_atomic(p, &bytes)?;
-            advance();
         }
-        let files = staged.files();
+        let files = staged.transaction.files();
         if let Some(ms) = std::env::var("RIDGELINE_PAUSE_BEFORE_COMMIT_MS").ok().and_then(|v| v.parse().ok()) {
             // for tests of the commit: holds the staged outputs so a signal can be sent
             std::thread::sleep(std::time::Duration::from_millis(ms));
         }
-        staged.commit().map_err(|e| TerrainError::Write { path: self.terrain.clone(), cause: e.into() })?;
+        staged.transaction.commit().map_err(|e| TerrainError::Write { path: self.terrain.clone(), cause: e.into() })?;
         tracing::debug!(files = files.len(), "outputs committed");
         Ok(files)
     }
+}
+
+/// A job's files, written to temporary files beside their destinations and not yet
+/// in place.
+pub struct Staged {
+    transaction: ridgeline_terrain::staging::Transaction,
+}
+
+/// The realism figures of a finished job against `sources`, the exemplars that
+/// supplied it at the output cell size (`evaluation`).
+pub fn evaluate(out: &SynthOutput, report: &SynthReport, sources: &[(String, Heightfield)]) -> crate::evaluation::Evaluation {
+    let provenance = crate::evaluation::provenance_of(&out.canvas, &report.exemplars);
+    crate::evaluation::evaluate(&crate::evaluation::Inputs {
+        terrain: out.terrain(),
+        cell_m: report.cell_size_m.unwrap_or(90.0),
+        sketch: Some(&out.sketch),
+        patch: report.patch,
+        sources,
+        provenance: Some(&provenance),
+    })
 }

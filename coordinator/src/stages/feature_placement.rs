@@ -19,7 +19,7 @@
 //! first batch is that patch alone.)
 
 use crate::canvas::{Canvas, Rect};
-use crate::pipeline::on_every_shard;
+use crate::shards::on_every_shard;
 use crate::stages::selection::select_and_merge;
 use crate::stages::user_patches::UserPatch;
 use rayon::prelude::*;
@@ -37,16 +37,24 @@ pub const BATCH_SCAN: usize = 256;
 /// when round 1 runs ahead of round 2. The result does not depend on it.
 pub const LOOKAHEAD: usize = 64;
 
-/// What feature placement did.
-#[derive(Debug, Default)]
+/// What feature placement did (in the job report under these names).
+#[derive(Debug, Clone, Default, serde::Serialize)]
 pub struct PlacementStats {
+    #[serde(rename = "feature_patches_placed")]
     pub placed: usize,
-    pub candidates: usize,
+    /// Round-1 candidates per user patch (all sources' best-sets), on average.
+    pub candidates_per_user_patch: usize,
+    /// Round-2 batches of non-interacting user patches.
+    #[serde(rename = "placement_batches")]
     pub batches: usize,
     /// Time the merging side waited for round-1 results.
+    #[serde(rename = "wait_for_workers_s")]
     pub wait_s: f64,
-    /// Round-1 wall seconds on the producer thread (overlaps merging).
+    /// Round-1 wall seconds on the producer thread (overlaps merging; the report
+    /// lists it among the stages as `round1_scoring`).
+    #[serde(skip)]
     pub round1_s: f64,
+    /// User patches matched by a fallback (no candidates of their own kind).
     pub fallbacks: Vec<String>,
 }
 
@@ -133,6 +141,7 @@ pub fn place_features(
     // candidates
     let mut pending: Vec<(usize, Vec<ScoredCandidate>)> = Vec::new();
     let mut done = 0u64;
+    let mut candidates = 0usize;
     std::thread::scope(|scope| -> Result<(), ShardError> {
         let (tx, rx) = std::sync::mpsc::sync_channel::<Result<(Vec<BestSet>, f64), ShardError>>(2);
         let blocks_ref = &blocks;
@@ -163,7 +172,8 @@ pub fn place_features(
         let mut arrived = 0usize;
         let mut receive = |msg: Result<(Vec<BestSet>, f64), ShardError>,
                            pending: &mut Vec<(usize, Vec<ScoredCandidate>)>,
-                           st: &mut PlacementStats|
+                           st: &mut PlacementStats,
+                           candidates: &mut usize|
          -> Result<(), ShardError> {
             let (sets, secs) = msg?;
             st.round1_s += secs;
@@ -182,7 +192,7 @@ pub fn place_features(
                     tracing::warn!("{note}");
                     st.fallbacks.push(note);
                 }
-                st.candidates += c.len();
+                *candidates += c.len();
                 pending.push((u.id as usize, c));
             }
             Ok(())
@@ -195,13 +205,13 @@ pub fn place_features(
                 let tw = Instant::now();
                 let msg = rx.recv().map_err(|_| ShardError::Unavailable("round-1 producer stopped".into()))?;
                 st.wait_s += tw.elapsed().as_secs_f64();
-                receive(msg, &mut pending, &mut st)?;
+                receive(msg, &mut pending, &mut st, &mut candidates)?;
             }
             // take whatever else has arrived, up to the look-ahead: a longer look-ahead
             // finds larger batches
             while pending.len() < LOOKAHEAD {
                 let Ok(msg) = rx.try_recv() else { break };
-                receive(msg, &mut pending, &mut st)?;
+                receive(msg, &mut pending, &mut st, &mut candidates)?;
             }
             let max = if canvas.base_level.is_none() {
                 1
@@ -238,6 +248,7 @@ pub fn place_features(
         }
         Ok(())
     })?;
+    st.candidates_per_user_patch = if ups.is_empty() { 0 } else { candidates / ups.len() };
     Ok(st)
 }
 

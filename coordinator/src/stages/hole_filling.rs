@@ -69,7 +69,7 @@
 //! filled only within a ragged extent of its core (`ragged_edge`).
 
 use crate::canvas::{Canvas, Placement, Rect, Win};
-use crate::pipeline::on_every_shard;
+use crate::shards::on_every_shard;
 use crate::stages::base_surface::{on_base, BaseSurface};
 use crate::stages::merge::SeamLimits;
 use crate::stages::ragged_edge::in_extent;
@@ -113,19 +113,33 @@ pub enum FillError {
     Shard(#[from] ShardError),
 }
 
-/// Counts of one hole-filling run.
-#[derive(Debug, Clone, Copy, Default)]
+/// Counts of one hole-filling run (in the job report under these names).
+#[derive(Debug, Clone, Copy, Default, serde::Serialize)]
 pub struct FillStats {
+    #[serde(rename = "hole_fills")]
     pub fills: usize,
+    #[serde(rename = "cells_filled_by_holes")]
     pub cells_filled: usize,
+    #[serde(skip)]
     pub cg_iterations: usize,
+    /// Rounds of four colour phases.
+    #[serde(rename = "fill_rounds")]
     pub rounds: usize,
+    /// Scoring waves (one call per shard each).
+    #[serde(rename = "fill_waves")]
     pub waves: usize,
     /// Wall seconds spent scoring on the shards.
+    #[serde(rename = "fill_scoring_s")]
     pub score_s: f64,
-    /// Seconds spent choosing targets, cutting seams and merging, summed over threads.
+    /// Seconds spent choosing targets, and cutting seams and merging, summed over
+    /// threads…
+    #[serde(skip)]
     pub target_s: f64,
+    #[serde(skip)]
     pub cut_merge_s: f64,
+    /// …and both together.
+    #[serde(rename = "fill_coordinator_core_s")]
+    pub coordinator_core_s: f64,
 }
 
 /// Summed-area tables over a region of a (sub-)canvas, for the priority of many
@@ -598,5 +612,17 @@ pub fn fill_holes(
             return Err(FillError::Stalled(canvas.empty));
         }
     }
+    stats.coordinator_core_s = stats.target_s + stats.cut_merge_s;
+    tracing::info!(
+        fills = stats.fills,
+        cells = stats.cells_filled,
+        rounds = stats.rounds,
+        waves = stats.waves,
+        score_s = stats.score_s,
+        target_s = stats.target_s,
+        cut_merge_s = stats.cut_merge_s,
+        cg_iterations = stats.cg_iterations,
+        "holes filled"
+    );
     Ok(stats)
 }

@@ -223,6 +223,19 @@ impl Stamps<'_> {
 /// its stamps band by band, so the stage holds two bands of corrections and a byte
 /// per cell (which cells moved) besides the terrain.
 pub fn fit_to_sketch(h: &mut Heightfield, sk: &SketchFeatures, patch: usize) -> FitStats {
+    let f = fit(h, sk, patch);
+    tracing::info!(
+        ridge_cells_off = f.ridge_cells_off,
+        valley_cells_off = f.valley_cells_off,
+        passes = f.passes,
+        cells_moved = f.cells_moved,
+        max_change = f.max_change,
+        "terrain fitted to the sketch"
+    );
+    f
+}
+
+fn fit(h: &mut Heightfield, sk: &SketchFeatures, patch: usize) -> FitStats {
     let mut stats = FitStats::default();
     let (reach, along) = (patch as f32 / 2.0, patch as f32 / 4.0);
     let bounds = [&sk.ridges, &sk.valleys];

@@ -132,6 +132,8 @@ pub fn user_patches(sk: &SketchFeatures, patch: usize) -> Vec<UserPatch> {
             });
         }
     }
+    let ridges = out.iter().filter(|u| u.kind == FeatureKind::Ridge).count();
+    tracing::info!(ridge = ridges, valley = out.len() - ridges, "user patches");
     out
 }
 

@@ -1,0 +1,163 @@
+//! The job, stage by stage (design.md, Pipeline), one call per stage through the
+//! [`StageRunner`] (which checks for cancellation, opens the stage's span, reports
+//! progress and records its time):
+//!
+//! 1. [`exemplars::load`] — the library loaded into shards (in-process or on the fleet;
+//!    worker side: `ridgeline_worker::InProcessShard`, features from the on-disk cache);
+//! 2. [`sketch::analyse`] — sketch strokes → centre lines → guide field;
+//! 3. [`user_patches`] — user patches in BFS order with control points;
+//! 4. [`place_features`] — round 1: every shard scores blocks of user patches
+//!    (`ShardScorer::score_block`) on a producer thread, while round 2
+//!    (`stages::selection::select_and_merge`) places block b in batches of
+//!    non-interacting user patches (Crause 2015, figure 6.9);
+//! 5. [`fill_holes`] — featureless patches, scored on the shards
+//!    (`ShardScorer::score_fill`), tile by tile in colour phases, until no cell is empty;
+//! 6. [`fit_to_sketch`] — a last smooth deformation puts crests on ridge lines and
+//!    floors on valley lines (`--no-sketch-fit` skips it).
+//!
+//! The session then evaluates the terrain and writes the outputs (`crate::session`).
+//!
+//! Determinism: round 1 results do not depend on the output, are gathered in (user
+//! patch, source) order and ranked by a total order; round 2 gives the sequential BFS
+//! result whatever the batches; hole filling's tiles depend only on the canvas at the
+//! start of their phase; parallel loops only map and collect, never reduce floats
+//! across threads. So the bytes of the result do not depend on the thread count or
+//! the worker count.
+//!
+//! Memory: the canvas holds 8 bytes per output cell (height and provenance), the
+//! sketch 1 and its centre-line graphs 2; `keep_features_only` adds 4 for the debug
+//! view of the terrain before hole filling.
+
+use super::report::{peak_rss_bytes, placements_per_exemplar, ShardReport, SynthReport};
+use super::settings::JobSettings;
+use super::stage_runner::StageRunner;
+use super::SynthError;
+use crate::canvas::Canvas;
+use crate::evaluation::quality::{adherence, seam_score};
+use crate::progress::Stage;
+use crate::stages::exemplars::{self, Backend, ExemplarSource, LoadSettings};
+use crate::stages::feature_placement::{place_features, PlacementSettings};
+use crate::stages::hole_filling::fill_holes;
+use crate::stages::sketch::{self, SketchFeatures};
+use crate::stages::sketch_fit::{fit_to_sketch, FitStats};
+use crate::stages::user_patches::{user_patches, UserPatch};
+use ridgeline_terrain::grid::{Grid, Heightfield};
+use ridgeline_terrain::shard::ShardTimes;
+use ridgeline_terrain::FeatureKind;
+use std::sync::Arc;
+
+/// What the stages made.
+pub struct SynthOutput {
+    /// The sketch as read.
+    pub sketch_image: Grid<u8>,
+    /// The output after feature placement, before hole filling (when asked for).
+    pub features_only: Option<Heightfield>,
+    pub sketch: SketchFeatures,
+    pub user_patches: Vec<UserPatch>,
+    pub canvas: Canvas,
+}
+
+impl SynthOutput {
+    /// The finished terrain (the canvas's heights; no copy).
+    pub fn terrain(&self) -> &Heightfield {
+        &self.canvas.heights
+    }
+}
+
+/// A job as the pipeline runs it.
+pub struct JobInputs<'a> {
+    pub sketch: Grid<u8>,
+    pub exemplars: &'a ExemplarSource,
+    pub backend: &'a Backend,
+    /// The fleet, connected, when the backend is one.
+    pub cluster: Option<&'a Arc<crate::cluster::Cluster>>,
+    pub settings: &'a JobSettings,
+}
+
+/// Runs the stages of one job (see the module header).
+pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput, SynthReport), SynthError> {
+    let set = job.settings;
+    let p = set.patch;
+    let (w, h) = (job.sketch.width, job.sketch.height);
+    let in_process = match job.backend {
+        Backend::InProcess { gpu, shards } => (*gpu, *shards),
+        _ => (ridgeline_worker::GpuMode::Off, 1),
+    };
+    let load = LoadSettings { patch: p, cell_size: set.cell_size, max_side: set.max_side, cache_dir: set.cache_dir.clone() };
+    let ex =
+        run.run(Stage::Exemplars, |cx| Ok(cx.install(|| exemplars::load(job.exemplars, job.cluster, in_process, &load))?))?;
+    let shards = &ex.shards;
+    let times_before: Vec<ShardTimes> = shards.iter().map(|s| s.times()).collect();
+
+    let sk = run.run(Stage::SketchFeatures, |cx| Ok(cx.install(|| sketch::analyse(&job.sketch, p))))?;
+
+    let ups = run.run(Stage::UserPatches, |_| Ok(user_patches(&sk, p)))?;
+
+    let mut canvas = Canvas::new(w, h, p);
+    let placement = run.run(Stage::FeaturePlacement, |cx| {
+        let progress = |done: u64, total: u64, c: &Canvas| {
+            cx.progress(done, total);
+            cx.placements(c);
+        };
+        let settings = PlacementSettings {
+            k: set.k,
+            block: set.block,
+            seed: set.seed,
+            max_batch: set.max_batch,
+            progress: &progress,
+            cancel: cx.cancel,
+        };
+        Ok(place_features(&mut canvas, &ups, shards, &settings, cx.pool)?)
+    })?;
+    run.record("round1_scoring", placement.round1_s);
+    let features_only = set.keep_features_only.then(|| canvas.heights.clone());
+
+    let filling = run.run(Stage::HoleFilling, |cx| {
+        let empty = canvas.empty as u64;
+        let on_fill = |left: u64, c: &Canvas| {
+            cx.progress(empty - left, empty);
+            cx.placements(c);
+        };
+        Ok(fill_holes(&mut canvas, shards, set.seed, cx.pool, &on_fill, cx.cancel)?)
+    })?;
+
+    let sketch_fit = match set.fit_sketch {
+        true => run.run(Stage::SketchFit, |cx| Ok(cx.install(|| fit_to_sketch(&mut canvas.heights, &sk, p))))?,
+        false => FitStats::default(),
+    };
+
+    // the report: what each stage did, the quality figures, each shard's part
+    let exemplars: Vec<_> = {
+        let mut e: Vec<_> = shards.iter().flat_map(|s| s.sources()).collect();
+        e.sort_by_key(|e| e.source);
+        e
+    };
+    let bounds = [&sk.ridges, &sk.valleys];
+    let quality = |g, kind| adherence(&canvas.heights, g, kind, p as f32 / 4.0, 4, 8, &bounds);
+    let ridges = ups.iter().filter(|u| u.kind == FeatureKind::Ridge).count();
+    let report = SynthReport {
+        width: w,
+        height: h,
+        patch: p,
+        seed: set.seed,
+        cell_size_m: ex.cell_size_m,
+        stages: run.timings().to_vec(),
+        ridge_patches: ridges,
+        valley_patches: ups.len() - ridges,
+        placement,
+        filling,
+        cache_hits: exemplars.iter().filter(|e| e.cache_hit).count(),
+        skipped_exemplars: shards.iter().flat_map(|s| s.skipped()).collect(),
+        placements_per_exemplar: placements_per_exemplar(&canvas, &exemplars),
+        exemplars,
+        sketch_fit,
+        ridge_adherence: quality(&sk.ridges, FeatureKind::Ridge),
+        valley_adherence: quality(&sk.valleys, FeatureKind::Valley),
+        seams: seam_score(&canvas.heights, &canvas.provenance.data),
+        shards: ShardReport::of_shards(shards, &times_before),
+        peak_rss_bytes: peak_rss_bytes(),
+        evaluation: None,
+    };
+    let out = SynthOutput { sketch_image: job.sketch, features_only, sketch: sk, user_patches: ups, canvas };
+    Ok((out, report))
+}

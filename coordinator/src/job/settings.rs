@@ -1,0 +1,93 @@
+//! A job's settings, gathered by the session builder and validated once in
+//! `SessionBuilder::build`: the stages read them, nothing changes them while a job
+//! runs.
+
+use super::SynthError;
+use std::path::PathBuf;
+
+/// Settings of one synthesis job.
+#[derive(Debug, Clone)]
+pub struct JobSettings {
+    /// Patch side in cells (default 64).
+    pub patch: usize,
+    pub seed: u64,
+    /// Best-set size per source (Crause: 5).
+    pub k: usize,
+    /// User patches per round-1 block.
+    pub block: usize,
+    /// Feature cache folder; `None` disables the cache.
+    pub cache_dir: Option<PathBuf>,
+    /// Largest accepted image side.
+    pub max_side: u32,
+    /// Output cell size in metres; default: the library's most common.
+    pub cell_size: Option<f32>,
+    /// Worker threads; 0 = all cores.
+    pub threads: usize,
+    /// Largest round-2 batch of non-interacting user patches (0 = no limit, 1 = one
+    /// at a time). The output does not depend on it; it is there to show that.
+    pub max_batch: usize,
+    /// Keep a copy of the terrain before hole filling (`SynthOutput::features_only`,
+    /// for debug views): 4 more bytes per output cell.
+    pub keep_features_only: bool,
+    /// Memory budget in bytes (`--max-memory`); `None`: the memory available now. A job
+    /// estimated to need more is refused before any work (`memory_budget`).
+    pub max_memory: Option<u64>,
+    /// Deform the finished terrain so every sketched line is the crest (floor) of its
+    /// cross-section (`stages::sketch_fit`; default on).
+    pub fit_sketch: bool,
+}
+
+impl Default for JobSettings {
+    fn default() -> Self {
+        JobSettings {
+            patch: 64,
+            seed: 0,
+            k: 5,
+            block: 16,
+            cache_dir: Some(ridgeline_worker::FeatureCache::default_dir()),
+            max_side: ridgeline_terrain::io::DEFAULT_MAX_SIDE,
+            cell_size: None,
+            threads: 0,
+            max_batch: 0,
+            keep_features_only: false,
+            max_memory: None,
+            fit_sketch: true,
+        }
+    }
+}
+
+/// Largest output cell size accepted (a degree of latitude is about 111 km).
+pub const MAX_CELL_SIZE_M: f32 = 100_000.0;
+
+impl JobSettings {
+    /// Refuses settings no job can run with, saying which and why.
+    pub fn validate(&self) -> Result<(), SynthError> {
+        if self.patch < 8 || self.patch > 512 || !self.patch.is_multiple_of(2) {
+            return Err(SynthError::Config(format!("patch size {} must be even and within 8..=512", self.patch)));
+        }
+        if self.k == 0 || self.block == 0 {
+            return Err(SynthError::Config("k and block must be at least 1".into()));
+        }
+        if let Some(c) = self.cell_size {
+            if !c.is_finite() || c <= 0.0 || c > MAX_CELL_SIZE_M {
+                return Err(SynthError::Config(format!(
+                    "cell size {c} m: give a positive number of metres, at most {MAX_CELL_SIZE_M}"
+                )));
+            }
+        }
+        let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+        let max_threads = (4 * cores).max(8);
+        if self.threads > max_threads {
+            return Err(SynthError::Config(format!(
+                "{} threads on a machine with {cores} cores: more than {max_threads} only adds overhead (0 = all cores)",
+                self.threads
+            )));
+        }
+        Ok(())
+    }
+
+    /// The job's thread pool.
+    pub fn thread_pool(&self) -> Result<rayon::ThreadPool, SynthError> {
+        rayon::ThreadPoolBuilder::new().num_threads(self.threads).build().map_err(|e| SynthError::Threads(e.to_string()))
+    }
+}
