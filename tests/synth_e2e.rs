@@ -39,17 +39,9 @@ fn full_run_fills_every_pixel_and_follows_the_sketch() {
     assert_eq!((out.terrain().width, out.terrain().height), (512, 512));
     assert!(out.terrain().data.iter().all(|v| v.is_finite()), "every pixel filled with a finite height");
     assert_eq!(out.report.exemplars.len(), 16, "all 16 DEMs used");
-    assert!(out.report.ridge_patches > 0 && out.report.valley_patches > 0);
-    for kind in FeatureKind::BOTH {
-        let a = adherence(
-            out.terrain(),
-            out.output.sketch.graph(kind),
-            kind,
-            16.0,
-            4,
-            8,
-            &[out.output.sketch.graph(FeatureKind::Ridge), out.output.sketch.graph(FeatureKind::Valley)],
-        );
+    assert!(out.report.user_patches.values().all(|&n| n > 0));
+    for kind in FeatureKind::ALL {
+        let a = adherence(out.terrain(), out.output.sketch.graph(kind), kind, 16.0, 4, 8, &out.output.sketch.bounds());
         assert!(a.sampled >= 50, "{kind:?}: only {} samples", a.sampled);
         assert!(
             a.fraction() >= 0.9,
@@ -140,7 +132,7 @@ fn a_sketch_without_strokes_is_filled_by_hole_filling_alone() {
         .build()
         .and_then(|s| s.run())
         .expect("synthesis");
-    assert_eq!(out.report.ridge_patches + out.report.valley_patches, 0);
+    assert_eq!(out.report.user_patches.total(), 0);
     assert!(out.report.filling.fills > 0);
     assert!(out.terrain().data.iter().all(|v| v.is_finite()));
 }
@@ -164,7 +156,7 @@ fn batched_round_two_gives_the_sequential_result() {
         "round 2: {} batches one at a time, {} batched, for {} user patches",
         one.report.placement.batches,
         batched.report.placement.batches,
-        one.report.ridge_patches + one.report.valley_patches
+        one.report.user_patches.total()
     );
     assert!(batched.report.placement.batches < one.report.placement.batches, "batches hold several user patches");
     let f = |o: &Finished| encode_tiff_f32(o.output.features_only.as_ref().unwrap()).unwrap();

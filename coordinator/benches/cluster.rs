@@ -108,7 +108,7 @@ fn main() {
             let r = run(&sketch, &dems, &cache, &workers);
             totals.push(r.total);
             waits.push(r.report.placement.wait_s);
-            let ups = (r.report.ridge_patches + r.report.valley_patches).max(1) as f64;
+            let ups = r.report.user_patches.total().max(1) as f64;
             bytes.push(r.bytes as f64 / ups);
             for s in &r.report.stages {
                 if !order.contains(&s.stage) {
@@ -132,8 +132,8 @@ fn main() {
         let r1 = median(stages.get_mut("round1_scoring").unwrap());
         summary.insert(n, (tm, wm, bm, placement));
         if n == 0 {
-            inproc_costs = (r1, placement - wm, rep.ridge_patches + rep.valley_patches, rep.exemplars.len());
-            let batch = (rep.ridge_patches + rep.valley_patches) as f64 / rep.placement.batches.max(1) as f64;
+            inproc_costs = (r1, placement - wm, rep.user_patches.total(), rep.exemplars.len());
+            let batch = rep.user_patches.total() as f64 / rep.placement.batches.max(1) as f64;
             fill_costs = (rep.filling.score_s, rep.filling.coordinator_core_s, rep.filling.fills, rep.width * rep.height, batch);
         }
     }

@@ -29,7 +29,6 @@ use ridgeline_terrain::costs::noise_variances;
 use ridgeline_terrain::library::{common_cell_size, scan_library};
 use ridgeline_terrain::patch_geometry::{FEATURELESS_VARIANTS, FEATURE_VARIANTS};
 use ridgeline_terrain::shard::{FillQuery, ShardScorer};
-use ridgeline_terrain::FeatureKind;
 use ridgeline_worker::{FeatureCache, GpuContext, GpuMode, InProcessShard, ShardConfig};
 use std::time::Instant;
 
@@ -127,8 +126,7 @@ fn bench(
     // round 1
     let (mut variants, mut samples) = (0u64, 0u64);
     for q in queries {
-        let kind = if q.kind == FeatureKind::Ridge { 0 } else { 1 };
-        let nodes: u64 = sources.iter().map(|s| s.nodes[kind].len() as u64).sum();
+        let nodes: u64 = sources.iter().map(|s| s.nodes[q.kind].len() as u64).sum();
         let per: u64 = q.paths.iter().map(|p| p.offsets.len() as u64).sum();
         variants += nodes * FEATURE_VARIANTS.len() as u64;
         samples += nodes * FEATURE_VARIANTS.len() as u64 * per;

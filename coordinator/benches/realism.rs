@@ -28,6 +28,7 @@ use common::{shared_data, synth};
 use ridgeline::evaluation::quality::seam_score;
 use ridgeline::evaluation::{self, landforms, spectrum, Evaluation, Inputs};
 use ridgeline_terrain::grid::{Grid, Heightfield};
+use ridgeline_terrain::FeatureKind;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -243,8 +244,8 @@ fn row(name: &str, e: &Evaluation, real_seam: f64, straight: usize, seconds: f64
     let o = |v: Option<f64>| v.map(|v| format!("{v:>6.2}")).unwrap_or_else(|| format!("{:>6}", "-"));
     println!(
         "{name:<22} {} {} {:>6.3} {} {} {} {:>6.2} {:>6} {:>6.3} {:>6.1}",
-        o(e.ridge_adherence),
-        o(e.valley_adherence),
+        o(e.adherence[FeatureKind::Ridge]),
+        o(e.adherence[FeatureKind::Valley]),
         e.landform_distance,
         o(e.spectral_slope_difference),
         o(e.roughness_ratio),

@@ -55,7 +55,7 @@ fn child(sketch: &Path, dems: &Path, cache: &Path) {
         "{}x{}: {} user patches, {} round-2 batches, {} hole fills in {} waves",
         r.width,
         r.height,
-        r.ridge_patches + r.valley_patches,
+        r.user_patches.total(),
         r.placement.batches,
         r.filling.fills,
         r.filling.waves

@@ -10,6 +10,7 @@ mod common;
 
 use common::{median, runs, shared_data, synth};
 use ridgeline::session::SessionBuilder;
+use ridgeline_terrain::FeatureKind;
 use std::path::Path;
 
 /// A setting: the feature cache (none: the cold baseline) and the thread count.
@@ -51,8 +52,8 @@ fn main() {
                 totals.push(t.elapsed().as_secs_f64());
                 wait.push(out.report.placement.wait_s);
                 counts = (
-                    out.report.ridge_patches,
-                    out.report.valley_patches,
+                    out.report.user_patches[FeatureKind::Ridge],
+                    out.report.user_patches[FeatureKind::Valley],
                     out.report.filling.fills,
                     out.report.placement.candidates_per_user_patch,
                 );

@@ -237,13 +237,13 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
     if !human {
         return Ok(());
     }
+    let patches: Vec<String> = report.user_patches.iter().map(|(kind, n)| format!("{n} {kind}")).collect();
     eprintln!(
-        "wrote {} ({} x {}), {} ridge + {} valley patches, {} hole fills, {:.2} s",
+        "wrote {} ({} x {}), {} patches, {} hole fills, {:.2} s",
         a.out.display(),
         report.width,
         report.height,
-        report.ridge_patches,
-        report.valley_patches,
+        patches.join(" + "),
         report.filling.fills,
         total
     );

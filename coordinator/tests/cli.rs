@@ -179,9 +179,11 @@ fn outputs_tiles_debug_report_and_json_logs() {
     assert_eq!(ridgeline_terrain::outputs::read_heightfield(&r16, 4096).unwrap(), full, "same job, same quantisation");
     // the report carries the realism figures, and `evaluate` gives the same from the files
     let ev = &report["evaluation"];
-    for k in ["landform_distance", "spectral_slope_difference", "roughness_ratio", "repetition", "ridge_adherence"] {
+    for k in ["landform_distance", "spectral_slope_difference", "roughness_ratio", "repetition"] {
         assert!(ev[k].is_number(), "report evaluation lacks {k}: {ev}");
     }
+    assert!(ev["adherence"]["ridge"].is_number() && ev["adherence"]["valley"].is_number(), "{ev}");
+    assert!(report["user_patches"]["ridge"].as_u64().unwrap() > 0, "{report}");
     assert!(ev["seams"]["mean_ratio"].is_number());
     let o = bin()
         .args(["evaluate", "--json", "--patch-size", "32", "--terrain"])

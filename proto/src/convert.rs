@@ -4,7 +4,7 @@
 
 use crate::v1;
 use ridgeline_terrain::costs::NOISE_LEVELS;
-use ridgeline_terrain::feature_extraction::FeatureKind;
+use ridgeline_terrain::feature_kind::{FeatureKind, PerKind};
 use ridgeline_terrain::patch_geometry::{ProfilePath, Variant};
 use ridgeline_terrain::shard::{
     BestSet, CandidateRef, FillBestSet, FillCandidate, FillQuery, ScoredCandidate, SkippedExemplar, SourceInfo, UserPatchQuery,
@@ -17,10 +17,20 @@ fn pairs(v: &[f32]) -> Result<Vec<[f32; 2]>, String> {
     Ok(v.chunks_exact(2).map(|c| [c[0], c[1]]).collect())
 }
 
+/// A feature kind on the wire: kind k of `FeatureKind::ALL` is k + 1.
+pub fn kind_to_wire(k: FeatureKind) -> i32 {
+    k.index() as i32 + 1
+}
+
+/// The feature kind a wire value names.
+pub fn kind_from_wire(v: i32) -> Result<FeatureKind, String> {
+    usize::try_from(v - 1).ok().and_then(FeatureKind::from_index).ok_or_else(|| format!("{v} is not a feature kind"))
+}
+
 pub fn query_to_wire(q: &UserPatchQuery) -> v1::UserPatchQuery {
     v1::UserPatchQuery {
         id: q.id,
-        valley: q.kind == FeatureKind::Valley,
+        kind: kind_to_wire(q.kind),
         exit_angles: q.exit_angles.clone(),
         paths: q.paths.iter().map(|p| v1::ProfilePath { xy: p.offsets.iter().flat_map(|o| [o[0], o[1]]).collect() }).collect(),
         profiles: q.profiles.iter().map(|p| v1::ProfilePath { xy: p.clone() }).collect(),
@@ -43,7 +53,7 @@ pub fn query_from_wire(q: v1::UserPatchQuery) -> Result<UserPatchQuery, String> 
     }
     Ok(UserPatchQuery {
         id: q.id,
-        kind: if q.valley { FeatureKind::Valley } else { FeatureKind::Ridge },
+        kind: kind_from_wire(q.kind).map_err(|e| format!("user patch {}: {e}", q.id))?,
         exit_angles: q.exit_angles,
         paths,
         profiles: q.profiles.into_iter().map(|p| p.xy).collect(),
@@ -175,25 +185,27 @@ pub fn source_to_wire(s: &SourceInfo) -> v1::SourceInfo {
         name: s.name.clone(),
         width: s.width as u32,
         height: s.height as u32,
-        ridge_nodes: s.feature_nodes[0] as u32,
-        valley_nodes: s.feature_nodes[1] as u32,
+        feature_nodes: s.feature_nodes.values().map(|&n| n as u32).collect(),
         featureless: s.featureless as u32,
         cache_hit: s.cache_hit,
         featureless_relief: s.featureless_relief.clone(),
     }
 }
 
-pub fn source_from_wire(s: v1::SourceInfo) -> SourceInfo {
-    SourceInfo {
+pub fn source_from_wire(s: v1::SourceInfo) -> Result<SourceInfo, String> {
+    if s.feature_nodes.len() != FeatureKind::COUNT {
+        return Err(format!("source {}: {} feature counts for {} kinds", s.source, s.feature_nodes.len(), FeatureKind::COUNT));
+    }
+    Ok(SourceInfo {
         source: s.source,
         name: s.name,
         width: s.width as usize,
         height: s.height as usize,
-        feature_nodes: [s.ridge_nodes as usize, s.valley_nodes as usize],
+        feature_nodes: PerKind::from_fn(|k| s.feature_nodes[k.index()] as usize),
         featureless: s.featureless as usize,
         cache_hit: s.cache_hit,
         featureless_relief: s.featureless_relief,
-    }
+    })
 }
 
 pub fn skipped_to_wire(s: &SkippedExemplar) -> v1::Skipped {
@@ -230,6 +242,25 @@ mod tests {
         let mut w = query_to_wire(&q);
         w.exit_angles[0] = f32::NAN;
         assert!(query_from_wire(w).is_err());
+        for bad_kind in [0, FeatureKind::COUNT as i32 + 1, -3] {
+            let mut w = query_to_wire(&q);
+            w.kind = bad_kind;
+            assert!(query_from_wire(w).is_err(), "kind {bad_kind}");
+        }
+        let s = SourceInfo {
+            source: 2,
+            name: "a.png".into(),
+            width: 10,
+            height: 12,
+            feature_nodes: PerKind::from_fn(|k| 5 + k.index()),
+            featureless: 3,
+            cache_hit: true,
+            featureless_relief: vec![1.0, 2.0, 3.0],
+        };
+        assert_eq!(source_from_wire(source_to_wire(&s)).unwrap(), s);
+        let mut w = source_to_wire(&s);
+        w.feature_nodes.pop();
+        assert!(source_from_wire(w).is_err(), "a count missing for a kind");
         let t = FillQuery {
             id: 4,
             samples: vec![(0, 1.5), (63, -2.0)],

@@ -6,9 +6,12 @@ pub mod v1 {
     tonic::include_proto!("ridgeline.v1");
 }
 
-/// The protocol version a worker reports in `Capabilities`: 2 added `ScoreFill` and
-/// removed `FeaturelessPool` (hole-fill scoring runs where the pool lives).
-pub const PROTOCOL_VERSION: u32 = 2;
+/// The protocol version a worker reports in `Capabilities`; a coordinator refuses a
+/// worker of another version, saying both. 2 added `ScoreFill` and removed
+/// `FeaturelessPool` (hole-fill scoring runs where the pool lives); 3 made feature
+/// kinds an enum with per-kind lists (no more `valley` flag and ridge/valley count
+/// pairs).
+pub const PROTOCOL_VERSION: u32 = 3;
 
 /// Layout version of the `FillRequest` / `FillReply` messages.
 pub const FILL_VERSION: u32 = 1;

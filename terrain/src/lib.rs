@@ -7,6 +7,7 @@ pub mod dem_formats;
 pub mod dem_repair;
 pub mod error;
 pub mod feature_extraction;
+pub mod feature_kind;
 pub mod grid;
 pub mod io;
 pub mod library;
@@ -16,5 +17,6 @@ pub mod shard;
 pub mod staging;
 
 pub use error::{Result, TerrainError};
-pub use feature_extraction::{FeatureGraph, FeatureKind, PpaParams};
+pub use feature_extraction::{FeatureGraph, PpaParams};
+pub use feature_kind::{FeatureKind, PerKind};
 pub use grid::{Grid, Heightfield};

@@ -2,7 +2,7 @@
 //! only through [`ShardScorer`] (design.md, Cluster). The in-process implementation is
 //! `ridgeline_worker::InProcessShard`; a gRPC client implements the same trait.
 
-use crate::feature_extraction::FeatureKind;
+use crate::feature_kind::{FeatureKind, PerKind};
 use crate::patch_geometry::{ProfilePath, Variant};
 
 /// A user patch as round 1 sees it: no output terrain, only the sketch's feature
@@ -115,7 +115,8 @@ pub struct SourceInfo {
     pub name: String,
     pub width: usize,
     pub height: usize,
-    pub feature_nodes: [usize; 2],
+    /// Feature candidate centres of each kind.
+    pub feature_nodes: PerKind<usize>,
     pub featureless: usize,
     pub cache_hit: bool,
     /// Relief (standard deviation, metres) of each featureless candidate, so the
@@ -225,21 +226,22 @@ impl ShardClock {
     }
 }
 
-/// A shard's candidate counts: feature nodes (ridge, valley) and featureless patches.
-pub fn candidate_counts(sources: &[SourceInfo]) -> ([u64; 2], u64) {
-    sources.iter().fold(([0, 0], 0), |(n, f), s| {
-        ([n[0] + s.feature_nodes[0] as u64, n[1] + s.feature_nodes[1] as u64], f + s.featureless as u64)
-    })
+/// A shard's candidate counts: feature nodes of each kind, and featureless patches.
+pub fn candidate_counts(sources: &[SourceInfo]) -> (PerKind<u64>, u64) {
+    let nodes = PerKind::from_fn(|k| sources.iter().map(|s| s.feature_nodes[k] as u64).sum());
+    (nodes, sources.iter().map(|s| s.featureless as u64).sum())
 }
 
-/// Samples a round-1 block reads over a shard of `nodes` (ridge, valley) feature
-/// nodes: every user patch's profile samples for every node of its kind in 10 variants.
-pub fn round1_samples(nodes: [u64; 2], block: &[UserPatchQuery]) -> u64 {
-    let of_kind = |kind: FeatureKind| match kind {
-        FeatureKind::Ridge => nodes[0],
-        FeatureKind::Valley => nodes[1],
-    };
-    block.iter().map(|q| q.paths.iter().map(|p| p.offsets.len() as u64).sum::<u64>() * of_kind(q.kind) * 10).sum()
+/// Candidate-variants of a shard with these counts: feature candidates in their 10
+/// variants and featureless ones in their 6.
+pub fn candidate_variants(nodes: &PerKind<u64>, featureless: u64) -> u64 {
+    nodes.total() * 10 + featureless * 6
+}
+
+/// Samples a round-1 block reads over a shard of `nodes` feature nodes of each kind:
+/// every user patch's profile samples for every node of its kind in 10 variants.
+pub fn round1_samples(nodes: &PerKind<u64>, block: &[UserPatchQuery]) -> u64 {
+    block.iter().map(|q| q.paths.iter().map(|p| p.offsets.len() as u64).sum::<u64>() * nodes[q.kind] * 10).sum()
 }
 
 /// Samples a fill-scoring call reads over a pool of `pool` featureless patches: every

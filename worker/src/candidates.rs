@@ -13,7 +13,7 @@
 //! instead, so every source still contributes.
 
 use ridgeline_terrain::costs::noise_variances;
-use ridgeline_terrain::feature_extraction::FeatureGraph;
+use ridgeline_terrain::feature_extraction::{FeatureGraph, PerKind};
 use ridgeline_terrain::grid::{distance_transform, Grid};
 use ridgeline_terrain::patch_geometry::{exits, extract_patch, Variant};
 
@@ -94,13 +94,14 @@ pub struct FeaturelessPatch {
 }
 
 /// Extracts the featureless pool of an exemplar.
-pub fn featureless_patches(h: &Grid<f32>, ridges: &FeatureGraph, valleys: &FeatureGraph, patch: usize) -> Vec<FeaturelessPatch> {
+/// Extracts the featureless pool of an exemplar whose features are `graphs`.
+pub fn featureless_patches(h: &Grid<f32>, graphs: &PerKind<FeatureGraph>, patch: usize) -> Vec<FeaturelessPatch> {
     let (w, hh) = (h.width, h.height);
     if w < patch + 2 || hh < patch + 2 {
         return Vec::new();
     }
     let mut feature = Grid::new(w, hh, false);
-    for p in ridges.pixels().chain(valleys.pixels()) {
+    for p in graphs.values().flat_map(|g| g.pixels()) {
         feature.data[p as usize] = true;
     }
     // distance from a centre to the nearest feature cell, searched up to patch/2
@@ -194,7 +195,7 @@ mod tests {
             ridges.add_edge((y * w + 150) as u32, ((y + 1) * w + 150) as u32);
         }
         let valleys = FeatureGraph::empty(w, h);
-        let pool = featureless_patches(&terrain, &ridges, &valleys, 64);
+        let pool = featureless_patches(&terrain, &PerKind([ridges, valleys]), 64);
         assert!(pool.len() >= 8);
         assert!(pool.iter().all(|p| (p.x as i64 - 150).abs() >= 8 && p.pixels.len() == 64 * 64));
     }

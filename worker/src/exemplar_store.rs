@@ -4,7 +4,7 @@
 
 use crate::candidates::{feature_nodes, featureless_patches, valid_centres, FeatureNode, FeaturelessPatch};
 use crate::feature_cache::FeatureCache;
-use ridgeline_terrain::feature_extraction::{extract_features, FeatureGraph, FeatureKind, PpaParams};
+use ridgeline_terrain::feature_extraction::{extract_features, FeatureGraph, FeatureKind, PerKind, PpaParams};
 use ridgeline_terrain::grid::{box_blur, Heightfield};
 use ridgeline_terrain::library::{load_exemplar, ExemplarSpec};
 use ridgeline_terrain::patch_geometry::patch_reach;
@@ -28,8 +28,8 @@ pub struct Source {
     pub id: u32,
     pub name: String,
     pub heights: Heightfield,
-    /// Candidate centres for ridges (`[0]`) and valleys (`[1]`).
-    pub nodes: [Vec<FeatureNode>; 2],
+    /// Candidate centres of each feature kind.
+    pub nodes: PerKind<Vec<FeatureNode>>,
     pub featureless: Vec<FeaturelessPatch>,
     /// Floor of a profile's range when normalising it (metres).
     pub min_range: f32,
@@ -65,13 +65,13 @@ pub fn exemplar_ppa_params(relief_m: f32) -> PpaParams {
     PpaParams { half_len: 8, dip: (0.015 * relief_m).max(0.5), min_branch: 16.0, passes: 3 }
 }
 
-/// Extracts ridge and valley graphs of an exemplar (smoothed by a 3x3 box first so
-/// single-cell noise does not make candidates).
-pub fn exemplar_features(h: &Heightfield, p: &PpaParams) -> (FeatureGraph, FeatureGraph) {
+/// Extracts the feature graph of every kind from an exemplar (smoothed by a 3x3 box
+/// first so single-cell noise does not make candidates), the kinds in parallel.
+pub fn exemplar_features(h: &Heightfield, p: &PpaParams) -> PerKind<FeatureGraph> {
+    use rayon::prelude::*;
     let smooth = box_blur(h, 1, 1);
-    let (r, v) =
-        rayon::join(|| extract_features(&smooth, FeatureKind::Ridge, p), || extract_features(&smooth, FeatureKind::Valley, p));
-    (r, v)
+    let mut graphs: Vec<FeatureGraph> = FeatureKind::ALL.par_iter().map(|&k| extract_features(&smooth, k, p)).collect();
+    PerKind::from_fn(|_| graphs.remove(0))
 }
 
 /// Loads one exemplar. An exemplar that cannot be used — unreadable, corrupt,
@@ -131,7 +131,7 @@ fn prepare_source(
                 }
                 None => {
                     let g = exemplar_features(&heights, &params);
-                    cache.put(&key, &g.0, &g.1);
+                    cache.put(&key, &g);
                     g
                 }
             }
@@ -140,16 +140,11 @@ fn prepare_source(
     };
     let spacing = (cfg.patch * 5 / 32).max(2);
     let valid = valid_centres(&heights, reach);
-    let nodes = [feature_nodes(&graphs.0, &valid, cfg.patch, spacing), feature_nodes(&graphs.1, &valid, cfg.patch, spacing)];
-    let featureless = featureless_patches(&heights, &graphs.0, &graphs.1, cfg.patch);
-    tracing::debug!(
-        ridge_nodes = nodes[0].len(),
-        valley_nodes = nodes[1].len(),
-        featureless = featureless.len(),
-        cache_hit,
-        "exemplar ready"
-    );
-    if nodes[0].is_empty() && nodes[1].is_empty() && featureless.is_empty() {
+    let nodes = graphs.map(|_, g| feature_nodes(g, &valid, cfg.patch, spacing));
+    let featureless = featureless_patches(&heights, &graphs, cfg.patch);
+    let counts = nodes.map(|_, n| n.len());
+    tracing::debug!(feature_nodes = ?counts, featureless = featureless.len(), cache_hit, "exemplar ready");
+    if counts.total() == 0 && featureless.is_empty() {
         return Err(LoadError::Unusable { path: path.to_path_buf() });
     }
     Ok(Source { id, name, heights, nodes, featureless, min_range: (0.02 * rel).max(1.0), cache_hit })

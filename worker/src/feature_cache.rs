@@ -3,12 +3,12 @@
 //! bytes and the extraction parameters. Entries are keyed by a SHA-256 of both,
 //! written atomically, and a damaged entry is recomputed rather than trusted.
 
-use ridgeline_terrain::feature_extraction::FeatureGraph;
+use ridgeline_terrain::feature_extraction::{FeatureGraph, PerKind};
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
 
 /// Bump when the cached representation or the extraction code changes meaning.
-const CACHE_VERSION: &str = "ppa-v3"; // v2: exemplars upsampled bicubic; v3: spikes repaired on load
+const CACHE_VERSION: &str = "ppa-v4"; // v2: exemplars upsampled bicubic; v3: spikes repaired on load; v4: graphs by kind name
 
 /// A folder of cached feature graphs.
 #[derive(Debug, Clone)]
@@ -20,8 +20,8 @@ pub struct FeatureCache {
 struct Entry {
     width: usize,
     height: usize,
-    ridges: Vec<(u32, u8)>,
-    valleys: Vec<(u32, u8)>,
+    /// Each kind's graph, sparse.
+    graphs: PerKind<Vec<(u32, u8)>>,
 }
 
 /// SHA-256 of a byte string, hex.
@@ -68,8 +68,8 @@ impl FeatureCache {
         self.dir.join(format!("{key}.json"))
     }
 
-    /// The cached (ridges, valleys) for `key`, if present and intact.
-    pub fn get(&self, key: &str, width: usize, height: usize) -> Option<(FeatureGraph, FeatureGraph)> {
+    /// The cached graph of every kind for `key`, if present and intact.
+    pub fn get(&self, key: &str, width: usize, height: usize) -> Option<PerKind<FeatureGraph>> {
         let p = self.path(key);
         let bytes = std::fs::read(&p).ok()?;
         let parsed: Result<Entry, _> = serde_json::from_slice(&bytes);
@@ -83,14 +83,17 @@ impl FeatureCache {
         if e.width != width || e.height != height {
             return None;
         }
-        let r = FeatureGraph::from_sparse(width, height, &e.ridges)?;
-        let v = FeatureGraph::from_sparse(width, height, &e.valleys)?;
-        Some((r, v))
+        let mut graphs = Vec::with_capacity(e.graphs.0.len());
+        for sparse in e.graphs.values() {
+            graphs.push(FeatureGraph::from_sparse(width, height, sparse)?);
+        }
+        Some(PerKind::from_fn(|_| graphs.remove(0)))
     }
 
     /// Stores an entry; failures are logged, never fatal (the cache is an optimisation).
-    pub fn put(&self, key: &str, ridges: &FeatureGraph, valleys: &FeatureGraph) {
-        let e = Entry { width: ridges.width, height: ridges.height, ridges: ridges.to_sparse(), valleys: valleys.to_sparse() };
+    pub fn put(&self, key: &str, graphs: &PerKind<FeatureGraph>) {
+        let (width, height) = graphs.values().next().map(|g| (g.width, g.height)).unwrap_or_default();
+        let e = Entry { width, height, graphs: graphs.map(|_, g| g.to_sparse()) };
         let res = std::fs::create_dir_all(&self.dir)
             .map_err(|e| e.to_string())
             .and_then(|_| serde_json::to_vec(&e).map_err(|e| e.to_string()))
@@ -111,12 +114,12 @@ mod tests {
         let c = FeatureCache::new(&dir);
         let mut r = FeatureGraph::empty(10, 10);
         r.add_edge(11, 12);
-        let v = FeatureGraph::empty(10, 10);
+        let g = PerKind::from_fn(|k| if k.index() == 0 { r.clone() } else { FeatureGraph::empty(10, 10) });
         let k = FeatureCache::key(b"dem bytes", &("params", 1));
         assert_ne!(k, FeatureCache::key(b"dem bytes", &("params", 2)));
         assert!(c.get(&k, 10, 10).is_none());
-        c.put(&k, &r, &v);
-        assert_eq!(c.get(&k, 10, 10), Some((r, v)));
+        c.put(&k, &g);
+        assert_eq!(c.get(&k, 10, 10), Some(g));
         std::fs::write(c.path(&k), b"{ not json").unwrap();
         assert!(c.get(&k, 10, 10).is_none());
         let _ = std::fs::remove_dir_all(&dir);

@@ -199,7 +199,7 @@ mod tests {
             id,
             name: format!("s{id}"),
             heights: Grid::new(1, 1, 0.0),
-            nodes: [Vec::new(), Vec::new()],
+            nodes: Default::default(),
             featureless: patches
                 .into_iter()
                 .enumerate()

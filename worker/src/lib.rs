@@ -22,6 +22,7 @@ pub use gpu::{BackendInfo, GpuContext, GpuMode};
 
 use backend::{CpuBackend, GpuBackend, ScoringBackend};
 use rayon::prelude::*;
+use ridgeline_terrain::feature_extraction::PerKind;
 use ridgeline_terrain::library::ExemplarSpec;
 use ridgeline_terrain::shard::{
     fill_samples, round1_samples, BestSet, FillBestSet, FillQuery, ShardClock, ShardError, ShardScorer, ShardTimes,
@@ -140,7 +141,7 @@ impl ShardScorer for InProcessShard {
                 name: s.name.clone(),
                 width: s.heights.width,
                 height: s.heights.height,
-                feature_nodes: [s.nodes[0].len(), s.nodes[1].len()],
+                feature_nodes: s.nodes.map(|_, n| n.len()),
                 featureless: s.featureless.len(),
                 cache_hit: s.cache_hit,
                 featureless_relief: s.featureless.iter().map(|f| ridgeline_terrain::costs::finite_std(&f.pixels)).collect(),
@@ -177,8 +178,8 @@ impl ShardScorer for InProcessShard {
         let sets = self.backend.round1(&self.sources, block, k, self.patch).map_err(ShardError::Unavailable)?;
         let seconds = t.elapsed().as_secs_f64();
         tracing::debug!(backend = self.backend.info().backend, user_patches = block.len(), seconds, "block scored");
-        let nodes = self.sources.iter().fold([0u64; 2], |n, s| [n[0] + s.nodes[0].len() as u64, n[1] + s.nodes[1].len() as u64]);
-        self.clock.round1(seconds, round1_samples(nodes, block));
+        let nodes = PerKind::from_fn(|k| self.sources.iter().map(|s| s.nodes[k].len() as u64).sum());
+        self.clock.round1(seconds, round1_samples(&nodes, block));
         Ok(sets)
     }
 

@@ -219,10 +219,7 @@ pub fn rank_cost(src: &Source, q: &UserPatchQuery, offs: &[Vec<[i32; 2]>], node:
 
 /// The candidate nodes of `src` a user patch of this kind is matched against.
 pub fn nodes_for(src: &Source, kind: FeatureKind) -> &[crate::candidates::FeatureNode] {
-    &src.nodes[match kind {
-        FeatureKind::Ridge => 0,
-        FeatureKind::Valley => 1,
-    }]
+    &src.nodes[kind]
 }
 
 /// Step 2 for one pair: re-scores the kept `(node index, variant)` in the ranking
@@ -317,6 +314,7 @@ pub fn ranked_best_set(src: &Source, q: &UserPatchQuery, k: usize) -> BestSet {
 mod tests {
     use super::*;
     use crate::candidates::FeatureNode;
+    use ridgeline_terrain::feature_extraction::PerKind;
     use ridgeline_terrain::grid::Grid;
     use ridgeline_terrain::patch_geometry::{normalise_profile, ProfilePath};
 
@@ -343,7 +341,7 @@ mod tests {
             id: 3,
             name: "synthetic".into(),
             heights,
-            nodes: [nodes, Vec::new()],
+            nodes: PerKind([nodes, Vec::new()]),
             featureless: Vec::new(),
             min_range,
             cache_hit: false,
@@ -370,7 +368,7 @@ mod tests {
     fn brute_force(src: &Source, q: &UserPatchQuery, k: usize) -> Vec<(CandidateRef, u32)> {
         let offs = variant_offsets(q);
         let mut all: Vec<Hit> = Vec::new();
-        for node in &src.nodes[0] {
+        for node in &src.nodes[FeatureKind::Ridge] {
             for (vi, o) in offs.iter().enumerate() {
                 all.push(rank_cost(src, q, o, (node.x, node.y), &node.exit_angles, vi));
             }
@@ -404,7 +402,7 @@ mod tests {
                 src.heights.data.iter_mut().for_each(|v| *v = 7000.0);
             }
             let stride = src.heights.width as i64;
-            for node in &src.nodes[0] {
+            for node in &src.nodes[FeatureKind::Ridge] {
                 for (vi, v) in FEATURE_VARIANTS.iter().enumerate() {
                     let exact = rank_cost(&src, &q, &offs[vi], (node.x, node.y), &node.exit_angles, vi);
                     let ca = angle_cost_mapped(&q.exit_angles, &node.exit_angles, *v);

@@ -205,7 +205,13 @@ impl Cluster {
                 }
                 if cap.protocol_version != ridgeline_proto::PROTOCOL_VERSION {
                     self.alive[w].store(false, Ordering::SeqCst);
-                    return Err(format!("{url}: protocol version {}", cap.protocol_version));
+                    return Err(format!(
+                        "{url}: the worker speaks protocol version {} (ridgeline {}), this coordinator version {} (ridgeline {}): run the same ridgeline on the coordinator and every worker",
+                        cap.protocol_version,
+                        if cap.version.is_empty() { "unknown" } else { cap.version.as_str() },
+                        ridgeline_proto::PROTOCOL_VERSION,
+                        env!("CARGO_PKG_VERSION")
+                    ));
                 }
                 self.alive[w].store(true, Ordering::SeqCst);
                 Ok(())

@@ -129,7 +129,8 @@ pub fn remote_shards(
         let shard = RemoteShard::assign(cluster.clone(), i, shard_ex, patch, out_cell, live[i])?;
         for s in shard.sources() {
             if let Some(e) = ex.iter().find(|e| e.wire.source == s.source) {
-                let count = (s.feature_nodes[0] + s.feature_nodes[1]) * 10 + s.featureless * 6;
+                let count =
+                    ridgeline_terrain::shard::candidate_variants(&s.feature_nodes.map(|_, &n| n as u64), s.featureless as u64);
                 known.insert(count_key(e, patch, out_cell), count.max(1) as u64);
             }
         }

@@ -125,7 +125,12 @@ impl RemoteShard {
                 });
                 match load {
                     Ok(r) => {
-                        st.sources = r.sources.into_iter().map(source_from_wire).collect();
+                        st.sources = r
+                            .sources
+                            .into_iter()
+                            .map(source_from_wire)
+                            .collect::<Result<_, _>>()
+                            .map_err(|e| ShardError::BadRequest(format!("{}: {e}", self.cluster.url(w))))?;
                         st.skipped = r.skipped.into_iter().map(skipped_from_wire).collect();
                     }
                     Err(s) if retryable(&s) || s.code() == tonic::Code::Unauthenticated => {
@@ -220,7 +225,7 @@ impl RemoteShard {
 
 impl RemoteShard {
     /// The shard's candidate counts (feature nodes per kind, featureless patches).
-    fn counts(&self) -> ([u64; 2], u64) {
+    fn counts(&self) -> (ridgeline_terrain::PerKind<u64>, u64) {
         self.state.lock().map(|s| candidate_counts(&s.sources)).unwrap_or_default()
     }
 
@@ -270,7 +275,7 @@ impl ShardScorer for RemoteShard {
         let reply = self.with_failover(|s, st| s.score_once(st, &req));
         ridgeline_worker::metrics::metrics().coordinator_call("round1", reply.is_ok());
         let reply = reply?;
-        let samples = round1_samples(self.counts().0, block);
+        let samples = round1_samples(&self.counts().0, block);
         self.measured(t.elapsed().as_secs_f64(), samples, true);
         let stats = &self.cluster.stats;
         stats.add_call(req.encoded_len() as u64, reply.encoded_len() as u64);

@@ -28,7 +28,7 @@ use crate::evaluation::quality::{adherence, seam_score, SeamScore};
 use crate::stages::sketch::SketchFeatures;
 use landforms::Landforms;
 use ridgeline_terrain::grid::Heightfield;
-use ridgeline_terrain::FeatureKind;
+use ridgeline_terrain::PerKind;
 use std::collections::BTreeMap;
 
 /// Placements whose centres are within this many patches count as "nearby" for
@@ -58,8 +58,9 @@ pub struct Provenance {
 pub struct Evaluation {
     /// Cross-profile half-width of the adherence test, in cells.
     pub profile_half_width_cells: f32,
-    pub ridge_adherence: Option<f64>,
-    pub valley_adherence: Option<f64>,
+    /// Per feature kind: the share of sampled centre-line points whose cross profile
+    /// has the kind's shape (none where the sketch has no line of the kind).
+    pub adherence: PerKind<Option<f64>>,
     pub landforms: Landforms,
     pub source_landforms: Landforms,
     /// Total-variation distance between the two histograms (0 to 1).
@@ -94,12 +95,11 @@ pub fn evaluate(i: &Inputs) -> Evaluation {
     let half = i.patch as f32 / 2.0;
     let mut e = Evaluation { profile_half_width_cells: half, ..Default::default() };
     if let Some(sk) = i.sketch {
-        let a = |g, kind| {
-            let a = adherence(i.terrain, g, kind, half, 4, i.patch / 2, &[&sk.ridges, &sk.valleys]);
+        let bounds = sk.bounds();
+        e.adherence = sk.lines.map(|kind, g| {
+            let a = adherence(i.terrain, g, kind, half, 4, i.patch / 2, &bounds);
             (a.sampled > 0).then(|| a.fraction())
-        };
-        e.ridge_adherence = a(&sk.ridges, FeatureKind::Ridge);
-        e.valley_adherence = a(&sk.valleys, FeatureKind::Valley);
+        });
     }
     e.source_weights = weights(i.sources, i.provenance);
     let weighted = |name: &String| e.source_weights.get(name).copied().unwrap_or(0.0);
@@ -265,16 +265,9 @@ impl Evaluation {
         let mut t = String::new();
         let mut row = |k: &str, v: String, note: &str| t.push_str(&format!("{k:<28} {v:>10}  {note}\n"));
         let hw = self.profile_half_width_cells;
-        row(
-            "ridge adherence",
-            opt(self.ridge_adherence, 3),
-            &format!("cross profile at ±{hw} cells or halfway to a closer line"),
-        );
-        row(
-            "valley adherence",
-            opt(self.valley_adherence, 3),
-            &format!("cross profile at ±{hw} cells or halfway to a closer line"),
-        );
+        for (kind, a) in self.adherence.iter() {
+            row(&format!("{kind} adherence"), opt(*a, 3), &format!("cross profile at ±{hw} cells or halfway to a closer line"));
+        }
         row("landform distance", format!("{:.3}", self.landform_distance), "total variation vs the sources (0 = same)");
         row("spectral slope", opt(self.spectral_slope, 2), &format!("sources {}", opt(self.source_spectral_slope, 2)));
         row("spectral slope difference", opt(self.spectral_slope_difference, 2), "negative: smoother than the sources");

@@ -54,10 +54,7 @@ pub fn adherence(
         };
         let (s1, s2) = (side(0), side(1));
         a.sampled += 1;
-        let ok = match kind {
-            FeatureKind::Ridge => c > s1 && c > s2,
-            FeatureKind::Valley => c < s1 && c < s2,
-        };
+        let ok = kind.stands_out(c, s1) && kind.stands_out(c, s2);
         if ok {
             a.matching += 1;
         }

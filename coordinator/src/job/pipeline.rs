@@ -40,10 +40,9 @@ use crate::stages::feature_placement::{place_features, PlacementSettings};
 use crate::stages::hole_filling::fill_holes;
 use crate::stages::sketch::{self, SketchFeatures};
 use crate::stages::sketch_fit::{fit_to_sketch, FitStats};
-use crate::stages::user_patches::{user_patches, UserPatch};
+use crate::stages::user_patches::{count_by_kind, user_patches, UserPatch};
 use ridgeline_terrain::grid::{Grid, Heightfield};
 use ridgeline_terrain::shard::ShardTimes;
-use ridgeline_terrain::FeatureKind;
 use std::sync::Arc;
 
 /// What the stages made.
@@ -132,9 +131,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
         e.sort_by_key(|e| e.source);
         e
     };
-    let bounds = [&sk.ridges, &sk.valleys];
-    let quality = |g, kind| adherence(&canvas.heights, g, kind, p as f32 / 4.0, 4, 8, &bounds);
-    let ridges = ups.iter().filter(|u| u.kind == FeatureKind::Ridge).count();
+    let bounds = sk.bounds();
     let report = SynthReport {
         width: w,
         height: h,
@@ -142,8 +139,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
         seed: set.seed,
         cell_size_m: ex.cell_size_m,
         stages: run.timings().to_vec(),
-        ridge_patches: ridges,
-        valley_patches: ups.len() - ridges,
+        user_patches: count_by_kind(&ups),
         placement,
         filling,
         cache_hits: exemplars.iter().filter(|e| e.cache_hit).count(),
@@ -151,8 +147,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
         placements_per_exemplar: placements_per_exemplar(&canvas, &exemplars),
         exemplars,
         sketch_fit,
-        ridge_adherence: quality(&sk.ridges, FeatureKind::Ridge),
-        valley_adherence: quality(&sk.valleys, FeatureKind::Valley),
+        adherence: sk.lines.map(|kind, g| adherence(&canvas.heights, g, kind, p as f32 / 4.0, 4, 8, &bounds)),
         seams: seam_score(&canvas.heights, &canvas.provenance.data),
         shards: ShardReport::of_shards(shards, &times_before),
         peak_rss_bytes: peak_rss_bytes(),

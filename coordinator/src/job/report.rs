@@ -9,6 +9,7 @@ use crate::stages::feature_placement::PlacementStats;
 use crate::stages::hole_filling::FillStats;
 use crate::stages::sketch_fit::FitStats;
 use ridgeline_terrain::shard::{ShardScorer, ShardTimes, SkippedExemplar, SourceInfo};
+use ridgeline_terrain::PerKind;
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
@@ -28,8 +29,8 @@ pub struct SynthReport {
     pub seed: u64,
     pub cell_size_m: Option<f32>,
     pub stages: Vec<StageTiming>,
-    pub ridge_patches: usize,
-    pub valley_patches: usize,
+    /// User patches of each feature kind.
+    pub user_patches: PerKind<usize>,
     /// Rounds 1 and 2 (`stages::feature_placement`).
     #[serde(flatten)]
     pub placement: PlacementStats,
@@ -44,10 +45,10 @@ pub struct SynthReport {
     /// The final fit to the sketch: centre-line cells that did not fit before it,
     /// cells it moved and by how much at most.
     pub sketch_fit: FitStats,
-    /// Sketch adherence of the result: sampled ridge centre-line points with a
-    /// ridge-shaped cross profile at patch/4, and the same for valleys.
-    pub ridge_adherence: Adherence,
-    pub valley_adherence: Adherence,
+    /// Sketch adherence of the result, per kind: sampled centre-line points whose
+    /// cross profile at patch/4 has the kind's shape (a crest for ridges, a floor for
+    /// valleys).
+    pub adherence: PerKind<Adherence>,
     /// Gradient jumps across merge seams against those inside patches.
     pub seams: SeamScore,
     /// Each shard: what it scored on and how long its calls took (round-1 blocks and
@@ -85,7 +86,7 @@ impl ShardReport {
                 ShardReport {
                     backend: s.backend(),
                     exemplars: s.sources().len(),
-                    candidate_variants: (nodes[0] + nodes[1]) * 10 + pool * 6,
+                    candidate_variants: ridgeline_terrain::shard::candidate_variants(&nodes, pool),
                     times: s.times().since(before),
                 }
             })

@@ -30,7 +30,6 @@ use image::{Rgb, RgbImage};
 use ridgeline_terrain::grid::{Grid, Heightfield};
 use ridgeline_terrain::io::{hillshade, write_atomic, write_rgb_png};
 use ridgeline_terrain::shard::SourceInfo;
-use ridgeline_terrain::FeatureKind;
 use std::path::Path;
 
 /// A distinct colour per index (golden-angle hues).
@@ -74,9 +73,8 @@ fn sketch_overlay(out: &SynthOutput, sketch: &Grid<u8>) -> RgbImage {
         let v = sketch.get(x as usize, y as usize) / 2 + 64;
         Rgb([v, v, v])
     });
-    for kind in FeatureKind::BOTH {
-        let color = if kind == FeatureKind::Ridge { [230, 30, 30] } else { [30, 60, 230] };
-        let g = out.sketch.graph(kind);
+    for (kind, g) in out.sketch.lines.iter() {
+        let color = kind.pen_colour();
         for p in g.pixels() {
             let (x, y) = g.xy(p);
             img.put_pixel(x as u32, y as u32, Rgb(color));

@@ -25,7 +25,6 @@ use crate::stages::user_patches::UserPatch;
 use rayon::prelude::*;
 use ridgeline_terrain::costs::near_centre;
 use ridgeline_terrain::shard::{BestSet, ScoredCandidate, ShardError, ShardScorer};
-use ridgeline_terrain::FeatureKind;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -90,10 +89,7 @@ pub fn next_batch(ups: &[UserPatch], pending: &[usize], patch: usize, max: usize
 /// matched against the negated profiles and their pixels negated.
 fn inverted_candidates(shards: &[Arc<dyn ShardScorer>], u: &UserPatch, k: usize) -> Result<Vec<ScoredCandidate>, ShardError> {
     let mut q = u.query.clone();
-    q.kind = match u.kind {
-        FeatureKind::Ridge => FeatureKind::Valley,
-        FeatureKind::Valley => FeatureKind::Ridge,
-    };
+    q.kind = u.kind.inverted();
     for p in &mut q.profiles {
         for v in p.iter_mut() {
             *v = -*v;

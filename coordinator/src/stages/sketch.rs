@@ -22,7 +22,7 @@
 //! about 7 bytes per cell besides the sketch (a distance field, the candidate mask,
 //! the graphs).
 
-use ridgeline_terrain::feature_extraction::{extract_ridges, FeatureGraph, FeatureKind, PpaParams};
+use ridgeline_terrain::feature_extraction::{extract_ridges, FeatureGraph, FeatureKind, PerKind, PpaParams};
 use ridgeline_terrain::grid::{distance_transform_by, Grid};
 
 /// PPA parameters for stroke distance fields.
@@ -33,8 +33,8 @@ pub const SKETCH_PPA: PpaParams = PpaParams { half_len: 2, dip: 0.25, min_branch
 pub struct SketchFeatures {
     pub width: usize,
     pub height: usize,
-    pub ridges: FeatureGraph,
-    pub valleys: FeatureGraph,
+    /// The centre lines of each kind's strokes.
+    pub lines: PerKind<FeatureGraph>,
     /// Half-width of the guide's tents (patch/4).
     pub tent_half_width: f32,
 }
@@ -66,13 +66,16 @@ impl LocalGuide {
 
 impl SketchFeatures {
     pub fn graph(&self, kind: FeatureKind) -> &FeatureGraph {
-        match kind {
-            FeatureKind::Ridge => &self.ridges,
-            FeatureKind::Valley => &self.valleys,
-        }
+        &self.lines[kind]
     }
 
-    /// The guide (+tent around ridges, −tent around valleys) over every cell within
+    /// Every kind's centre lines: what a cross-section stops halfway to.
+    pub fn bounds(&self) -> Vec<&FeatureGraph> {
+        self.lines.values().collect()
+    }
+
+    /// The guide (each kind's tents times its sign: +tent around ridges, −tent around
+    /// valleys) over every cell within
     /// `reach` of (cx, cy) (plus one for bilinear sampling). The distance transforms run
     /// on a window padded by more than the tent's half-width, so every value equals the
     /// whole-sketch field's: a centre line outside the window is too far to matter.
@@ -85,8 +88,12 @@ impl SketchFeatures {
             let d = distance_transform_by(w, h, |i| g.contains(((y0 + i / w) * self.width + x0 + i % w) as u32));
             d.map(|d| (1.0 - d / self.tent_half_width).max(0.0))
         };
-        let (r, v) = (tent(&self.ridges), tent(&self.valleys));
-        let field = Grid::from_vec(w, h, r.data.iter().zip(&v.data).map(|(a, b)| a - b).collect());
+        let mut field = Grid::new(w, h, 0f32);
+        for (kind, g) in self.lines.iter() {
+            let t = tent(g);
+            let s = kind.sign();
+            field.data.iter_mut().zip(&t.data).for_each(|(f, t)| *f += s * t);
+        }
         LocalGuide { x0, y0, width: self.width, height: self.height, field }
     }
 }
@@ -178,9 +185,8 @@ pub fn centre_lines(sketch: &Grid<u8>, kind: FeatureKind) -> FeatureGraph {
 /// Analyses a sketch for patches of `patch` cells.
 pub fn analyse(sketch: &Grid<u8>, patch: usize) -> SketchFeatures {
     // one kind after the other: half the peak memory of running both at once
-    let ridges = centre_lines(sketch, FeatureKind::Ridge);
-    let valleys = centre_lines(sketch, FeatureKind::Valley);
-    SketchFeatures { width: sketch.width, height: sketch.height, ridges, valleys, tent_half_width: patch as f32 / 4.0 }
+    let lines = PerKind::from_fn(|kind| centre_lines(sketch, kind));
+    SketchFeatures { width: sketch.width, height: sketch.height, lines, tent_half_width: patch as f32 / 4.0 }
 }
 
 #[cfg(test)]
@@ -236,8 +242,8 @@ mod tests {
     fn valley_strokes_and_guide_sign() {
         let s = stroke_sketch(9.0, 0);
         let f = analyse(&s, 64);
-        assert!(f.ridges.pixels().next().is_none());
-        assert!(f.valleys.pixels().count() > 150);
+        assert!(f.lines[FeatureKind::Ridge].pixels().next().is_none());
+        assert!(f.lines[FeatureKind::Valley].pixels().count() > 150);
         let (x, y) = (120usize, (0.3f32 * 120.0 + 40.0).round() as usize);
         let g = f.local_guide(x, y, 32);
         assert!(g.sample(x as f32, y as f32) < -0.9);
@@ -257,7 +263,7 @@ mod tests {
             g.pixels().for_each(|p| seeds.data[p as usize] = true);
             distance_transform(&seeds).map(|d| (1.0 - d / 16.0).max(0.0))
         };
-        let (r, v) = (tent(&f.ridges), tent(&f.valleys));
+        let (r, v) = (tent(&f.lines[FeatureKind::Ridge]), tent(&f.lines[FeatureKind::Valley]));
         let whole = Grid::from_vec(256, 192, r.data.iter().zip(&v.data).map(|(a, b)| a - b).collect());
         for &(cx, cy) in &[(100usize, 70usize), (5, 5), (250, 150), (128, 120)] {
             let g = f.local_guide(cx, cy, 32);

@@ -34,7 +34,7 @@
 
 use crate::stages::sketch::{cross_section, CrossSection, SketchFeatures};
 use rayon::prelude::*;
-use ridgeline_terrain::feature_extraction::FeatureGraph;
+use ridgeline_terrain::feature_extraction::{FeatureGraph, FeatureKind, PerKind};
 use ridgeline_terrain::grid::Heightfield;
 
 /// At most this many passes (each re-measures after the previous deformation).
@@ -52,9 +52,8 @@ const CHECKS: [f32; 2] = [0.5, 1.0];
 pub struct FitStats {
     /// Passes that found something to correct.
     pub passes: usize,
-    /// Centre-line cells that did not fit before the first pass.
-    pub ridge_cells_off: usize,
-    pub valley_cells_off: usize,
+    /// Centre-line cells of each kind that did not fit before the first pass.
+    pub cells_off: PerKind<usize>,
     /// Cells whose height changed.
     pub cells_moved: usize,
     /// Largest change of a cell in one pass (height units).
@@ -225,8 +224,7 @@ impl Stamps<'_> {
 pub fn fit_to_sketch(h: &mut Heightfield, sk: &SketchFeatures, patch: usize) -> FitStats {
     let f = fit(h, sk, patch);
     tracing::info!(
-        ridge_cells_off = f.ridge_cells_off,
-        valley_cells_off = f.valley_cells_off,
+        cells_off = ?f.cells_off,
         passes = f.passes,
         cells_moved = f.cells_moved,
         max_change = f.max_change,
@@ -238,26 +236,25 @@ pub fn fit_to_sketch(h: &mut Heightfield, sk: &SketchFeatures, patch: usize) -> 
 fn fit(h: &mut Heightfield, sk: &SketchFeatures, patch: usize) -> FitStats {
     let mut stats = FitStats::default();
     let (reach, along) = (patch as f32 / 2.0, patch as f32 / 4.0);
-    let bounds = [&sk.ridges, &sk.valleys];
-    let sections = |g: &FeatureGraph| -> Vec<CrossSection> {
+    let bounds = sk.bounds();
+    let sections = sk.lines.map(|_, g: &FeatureGraph| -> Vec<CrossSection> {
         let pix: Vec<u32> = g.pixels().collect();
         pix.par_iter().map(|&p| cross_section(g, p, reach, &bounds)).collect()
-    };
-    let (ridges, valleys) = (sections(&sk.ridges), sections(&sk.valleys));
-    if ridges.is_empty() && valleys.is_empty() {
+    });
+    if sections.values().all(|s| s.is_empty()) {
         return stats;
     }
     let slope = median_slope(h);
     let w = h.width;
     let mut moved: Vec<u8> = Vec::new();
     for pass in 0..PASSES {
-        let (up, r_off) = stamps(h, 1.0, &ridges, slope, along);
-        let (down, v_off) = stamps(h, -1.0, &valleys, slope, along);
+        // each kind's stamps, pushing the terrain its way (up for ridges, down for valleys)
+        let drawn = sections.map(|kind, s| stamps(h, kind.sign(), s, slope, along));
+        let off = drawn.map(|_, d| d.1);
         if pass == 0 {
-            stats.ridge_cells_off = r_off;
-            stats.valley_cells_off = v_off;
+            stats.cells_off = off;
         }
-        if r_off + v_off == 0 {
+        if off.total() == 0 {
             break;
         }
         stats.passes += 1;
@@ -268,15 +265,18 @@ fn fit(h: &mut Heightfield, sk: &SketchFeatures, patch: usize) -> FitStats {
             .zip(moved.par_chunks_mut(BAND * w))
             .enumerate()
             .map(|(b, (rows, mv))| {
-                if up.per_band[b].is_empty() && down.per_band[b].is_empty() {
+                if drawn.values().all(|d| d.0.per_band[b].is_empty()) {
                     return 0.0;
                 }
-                let (mut u, mut d) = (vec![0f32; rows.len()], vec![0f32; rows.len()]);
-                up.draw(b, b * BAND, w, &mut u);
-                down.draw(b, b * BAND, w, &mut d);
+                let profiles = drawn.map(|_, d| {
+                    let mut p = vec![0f32; rows.len()];
+                    d.0.draw(b, b * BAND, w, &mut p);
+                    p
+                });
                 let mut m = 0f32;
                 for (k, v) in rows.iter_mut().enumerate() {
-                    let new = *v + (u[k] - d[k]);
+                    let push = FeatureKind::ALL.iter().fold(0f32, |acc, &kind| acc + kind.sign() * profiles[kind][k]);
+                    let new = *v + push;
                     if new != *v {
                         m = m.max((new - *v).abs());
                         mv[k] = 1;
@@ -313,10 +313,8 @@ mod tests {
     }
 
     fn fits(h: &Heightfield, sk: &SketchFeatures) -> (f64, f64) {
-        let b = [&sk.ridges, &sk.valleys];
-        let r = crate::evaluation::quality::adherence(h, &sk.ridges, FeatureKind::Ridge, 32.0, 1, 0, &b);
-        let v = crate::evaluation::quality::adherence(h, &sk.valleys, FeatureKind::Valley, 32.0, 1, 0, &b);
-        (r.fraction(), v.fraction())
+        let a = sk.lines.map(|kind, g| crate::evaluation::quality::adherence(h, g, kind, 32.0, 1, 0, &sk.bounds()).fraction());
+        (a[FeatureKind::Ridge], a[FeatureKind::Valley])
     }
 
     #[test]
@@ -332,7 +330,7 @@ mod tests {
         assert!(fits(&h, &sk).0 < 0.1 && fits(&h, &sk).1 < 0.1);
         let stats = fit_to_sketch(&mut h, &sk, 64);
         assert_eq!(fits(&h, &sk), (1.0, 1.0), "{stats:?}");
-        assert!(stats.ridge_cells_off > 100 && stats.valley_cells_off > 100, "{stats:?}");
+        assert!(stats.cells_off.values().all(|&n| n > 100), "{stats:?}");
         // cells beyond every line's reach are left exactly as they were
         for y in [0usize, 20, 159] {
             for x in 0..160 {

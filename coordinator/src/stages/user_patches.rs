@@ -9,7 +9,7 @@
 //! the edge of a neighbour's patch.
 
 use crate::stages::sketch::SketchFeatures;
-use ridgeline_terrain::feature_extraction::{FeatureGraph, FeatureKind};
+use ridgeline_terrain::feature_extraction::{FeatureGraph, FeatureKind, PerKind};
 use ridgeline_terrain::patch_geometry::{exits, normalise_profile, profile_paths, Exit};
 use ridgeline_terrain::shard::UserPatchQuery;
 use std::collections::VecDeque;
@@ -98,12 +98,17 @@ pub fn place_nodes(g: &FeatureGraph, patch: usize) -> Vec<u32> {
     chosen
 }
 
-/// Builds the user patches of a sketch: ridges first, then valleys (Crause runs
-/// feature matching once per kind), each in BFS order.
+/// How many of `ups` are of each kind.
+pub fn count_by_kind(ups: &[UserPatch]) -> PerKind<usize> {
+    PerKind::from_fn(|k| ups.iter().filter(|u| u.kind == k).count())
+}
+
+/// Builds the user patches of a sketch: one kind after the other (ridges first, then
+/// valleys: Crause runs feature matching once per kind), each in BFS order.
 pub fn user_patches(sk: &SketchFeatures, patch: usize) -> Vec<UserPatch> {
     let radius = patch as f32 / 4.0;
     let mut out = Vec::new();
-    for kind in FeatureKind::BOTH {
+    for kind in FeatureKind::ALL {
         let g = sk.graph(kind);
         for p in place_nodes(g, patch) {
             let e = exits(g, p, radius);
@@ -132,8 +137,7 @@ pub fn user_patches(sk: &SketchFeatures, patch: usize) -> Vec<UserPatch> {
             });
         }
     }
-    let ridges = out.iter().filter(|u| u.kind == FeatureKind::Ridge).count();
-    tracing::info!(ridge = ridges, valley = out.len() - ridges, "user patches");
+    tracing::info!(per_kind = ?count_by_kind(&out), "user patches");
     out
 }
 

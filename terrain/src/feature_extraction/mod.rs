@@ -42,29 +42,7 @@ pub struct PpaParams {
     pub passes: usize,
 }
 
-/// Ridge or valley.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize)]
-pub enum FeatureKind {
-    Ridge,
-    Valley,
-}
-
-impl FeatureKind {
-    pub const BOTH: [FeatureKind; 2] = [FeatureKind::Ridge, FeatureKind::Valley];
-    /// +1 for ridges, -1 for valleys: multiply heights by this to find the kind as ridges.
-    pub fn sign(self) -> f32 {
-        match self {
-            FeatureKind::Ridge => 1.0,
-            FeatureKind::Valley => -1.0,
-        }
-    }
-    pub fn name(self) -> &'static str {
-        match self {
-            FeatureKind::Ridge => "ridge",
-            FeatureKind::Valley => "valley",
-        }
-    }
-}
+pub use crate::feature_kind::{FeatureKind, PerKind};
 
 /// 8-neighbourhood offsets, index = direction code (E, SE, S, SW, W, NW, N, NE).
 pub const DIRS: [(i64, i64); 8] = [(1, 0), (1, 1), (0, 1), (-1, 1), (-1, 0), (-1, -1), (0, -1), (1, -1)];

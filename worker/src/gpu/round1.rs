@@ -16,7 +16,7 @@ use crate::exemplar_store::Source;
 use crate::patch_matching::{self, variant_offsets};
 use bytemuck::{Pod, Zeroable};
 use rayon::prelude::*;
-use ridgeline_terrain::feature_extraction::FeatureKind;
+use ridgeline_terrain::feature_extraction::PerKind;
 use ridgeline_terrain::shard::{BestSet, UserPatchQuery};
 
 /// Largest k the kernel's per-thread lists hold (`KMAX` in the shader).
@@ -74,7 +74,7 @@ pub struct Resident {
     nodes: wgpu::Buffer,
     exits: wgpu::Buffer,
     /// Per source, per kind: first node and count in `nodes`.
-    ranges: Vec<[(u32, u32); 2]>,
+    ranges: Vec<PerKind<(u32, u32)>>,
     /// Bytes held on the device.
     pub bytes: u64,
 }
@@ -101,8 +101,8 @@ impl Resident {
         for s in sources {
             let offset = heights.len() as u32;
             heights.extend_from_slice(&s.heights.data);
-            let mut r = [(0, 0); 2];
-            for (kind, list) in s.nodes.iter().enumerate() {
+            let mut r = PerKind::default();
+            for (kind, list) in s.nodes.iter() {
                 r[kind] = (nodes.len() as u32, list.len() as u32);
                 for n in list {
                     nodes.push(GpuNode {
@@ -174,12 +174,8 @@ fn pairs(res: &Resident, sources: &[Source], block: &[UserPatchQuery]) -> Vec<Gp
     let mut out = Vec::with_capacity(block.len() * sources.len());
     let mut cost_offset = 0u32;
     for (b, q) in block.iter().enumerate() {
-        let kind = match q.kind {
-            FeatureKind::Ridge => 0,
-            FeatureKind::Valley => 1,
-        };
         for (s, src) in sources.iter().enumerate() {
-            let (node_start, node_count) = res.ranges[s][kind];
+            let (node_start, node_count) = res.ranges[s][q.kind];
             out.push(GpuPair {
                 node_start,
                 node_count,
