@@ -34,10 +34,22 @@ export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
 # deploy/ manifests against the Kubernetes and Compose schemas
 bash scripts/check-deploy.sh
 cargo fmt --all -- --check
+# no import circles between the module files of any crate
+python3 scripts/module-cycles.py terrain/src proto/src ops/src worker/src coordinator/src
 cargo clippy --workspace --all-targets --release -- -D warnings
 cargo test --workspace --release
-# the library without the command line's dependencies (what an embedding tool builds)
+# the library without the command line's dependencies (what an embedding tool builds):
+# the in-process CPU backend alone, none of the GPU's, the fleet's, the services' or the
+# command line's crates; then each optional part on its own
 cargo clippy -p ridgeline --release --no-default-features --lib --examples -- -D warnings
+machinery=$(cargo tree -p ridgeline --no-default-features -e normal --prefix none | grep -E '^(wgpu|tonic|prost|tokio|axum|prometheus-client|clap|indicatif|ureq) ' | sort -u || true)
+if [ -n "$machinery" ]; then
+  echo "error: the library built without default features pulls in: $machinery" >&2
+  exit 1
+fi
+for f in gpu fleet worker service; do
+  cargo clippy -p ridgeline --release --no-default-features --features "$f" --lib -- -D warnings
+done
 # the web page end to end in headless Chromium (tests/web/e2e.mjs)
 DATA="${RIDGELINE_SHARED_DATA:-../shared/data}"
 if [ -d "$DATA/dems" ] && [ -x /usr/bin/chromium ] && command -v npm >/dev/null 2>&1; then

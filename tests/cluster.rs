@@ -5,7 +5,7 @@
 use ridgeline::cluster::{Cluster, ClusterConfig};
 use ridgeline::session::Backend;
 use ridgeline_proto::v1;
-use ridgeline_terrain::io::encode_tiff_f32;
+use ridgeline_terrain::outputs::encode_tiff_f32;
 use ridgeline_tests::{session, shared_data, temp_dir, WorkerProc};
 use std::sync::Arc;
 

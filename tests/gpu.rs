@@ -5,9 +5,9 @@
 use ridgeline::cluster::{Cluster, ClusterConfig};
 use ridgeline::session::Backend;
 use ridgeline::SynthReport;
-use ridgeline_terrain::io::encode_tiff_f32;
+use ridgeline_terrain::outputs::encode_tiff_f32;
 use ridgeline_tests::{session, shared_data, temp_dir, WorkerProc};
-use ridgeline_worker::gpu::{GpuContext, GpuError, GpuMode};
+use ridgeline_worker::{open_device, GpuError, GpuMode};
 
 fn job(
     data: &std::path::Path,
@@ -30,7 +30,7 @@ fn job(
 #[test]
 fn same_bytes_on_the_cpu_on_the_gpu_and_on_a_mixed_fleet() {
     let Some(data) = shared_data() else { return };
-    if let Err(GpuError::NoAdapter) = GpuContext::open(GpuMode::Software) {
+    if let Err(GpuError::NoAdapter) = open_device(GpuMode::Software) {
         eprintln!("SKIPPED: no Vulkan adapter (install mesa-vulkan-drivers and libvulkan1 for lavapipe)");
         return;
     }

@@ -4,8 +4,8 @@
 use ridgeline::canvas::{Canvas, Placement};
 use ridgeline::evaluation::quality::{adherence, max_gradient_jump};
 use ridgeline::Finished;
-use ridgeline_terrain::io::encode_tiff_f32;
 use ridgeline_terrain::library::{load_exemplar, scan_library};
+use ridgeline_terrain::outputs::encode_tiff_f32;
 use ridgeline_terrain::patch_geometry::{extract_patch, Variant};
 use ridgeline_terrain::FeatureKind;
 use ridgeline_tests::{session, shared_data, temp_dir};

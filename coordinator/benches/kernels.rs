@@ -29,7 +29,8 @@ use ridgeline_terrain::costs::noise_variances;
 use ridgeline_terrain::library::{common_cell_size, scan_library};
 use ridgeline_terrain::patch_geometry::{FEATURELESS_VARIANTS, FEATURE_VARIANTS};
 use ridgeline_terrain::shard::{FillQuery, ShardScorer};
-use ridgeline_worker::{FeatureCache, GpuContext, GpuMode, InProcessShard, ShardConfig};
+use ridgeline_worker::gpu::GpuContext;
+use ridgeline_worker::{FeatureCache, GpuMode, InProcessShard, ShardConfig};
 use std::time::Instant;
 
 const PATCH: usize = 64;

@@ -16,11 +16,16 @@
 //! - [`fetch_dem`]: building a library from public elevation tiles.
 //!
 //! The command line (`src/cli/`, `main.rs`) is a thin layer over [`session`] and
-//! [`service`], behind the default `cli` feature.
+//! [`service`], behind the default `cli` feature. Without default features the crate
+//! is the library with the in-process CPU backend alone (none of wgpu, tonic, axum,
+//! prometheus-client or clap); `gpu`, `fleet` (the gRPC client), `worker` (the gRPC
+//! worker service), `service` (`ridgeline serve`), `metrics` and `fetch` add the rest.
 
 pub mod canvas;
+#[cfg(feature = "fleet")]
 pub mod cluster;
 pub mod evaluation;
+#[cfg(feature = "fetch")]
 pub mod fetch_dem;
 pub mod job;
 pub mod outputs;

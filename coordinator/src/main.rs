@@ -138,7 +138,7 @@ fn worker(a: WorkerArgs) -> Result<()> {
         max_exemplar_bytes: a.max_exemplar_mb << 20,
         max_shards: 8,
         threads: a.threads,
-        gpu: ridgeline_worker::GpuContext::open(a.gpu)?,
+        gpu: ridgeline_worker::open_device(a.gpu)?,
         connections: ridgeline_worker::connection_guard::Limits {
             handshake_timeout: std::time::Duration::from_secs(a.handshake_timeout_s.max(1)),
             max_pending: 256,
@@ -178,7 +178,7 @@ fn worker(a: WorkerArgs) -> Result<()> {
 /// Starts the metrics endpoint when asked for.
 fn serve_metrics(addr: Option<std::net::SocketAddr>) -> Result<()> {
     if let Some(addr) = addr {
-        let bound = ridgeline_worker::metrics::serve(addr).with_context(|| format!("--metrics-listen {addr}"))?;
+        let bound = ridgeline_ops::metrics::serve(addr).with_context(|| format!("--metrics-listen {addr}"))?;
         tracing::info!(%bound, "metrics at http://{bound}/metrics");
     }
     Ok(())
@@ -225,7 +225,7 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
     let session = builder.build()?;
     serve_metrics(a.metrics_listen)?;
     let out = session.run();
-    let jobs = &ridgeline_worker::metrics::metrics().coordinator_jobs;
+    let jobs = &ridgeline_ops::metrics::metrics().coordinator_jobs;
     jobs.get_or_create(&vec![("outcome", if out.is_ok() { "ok" } else { "error" }.to_string())]).inc();
     let finished = out.context("synthesis failed")?;
     let report = finished.report;

@@ -372,7 +372,9 @@ impl SessionBuilder {
             }
         }
         match &self.backend {
+            #[cfg(feature = "fleet")]
             Backend::Fleet(c) if c.workers.is_empty() => return invalid("a fleet backend with no worker addresses".into()),
+            #[cfg(feature = "fleet")]
             Backend::Fleet(_) | Backend::Cluster(_) if matches!(exemplars, ExemplarSource::InMemory { .. }) => {
                 return invalid("exemplars in memory run on in-process shards only (a fleet loads them from files)".into());
             }
@@ -440,27 +442,18 @@ impl Session {
         }
         .entered();
         self.check_memory(&sketch_name)?;
-        let cluster = match &self.backend {
-            Backend::Fleet(c) => {
-                Some(crate::cluster::Cluster::connect(c.clone()).map_err(|e| SessionError::Invalid(format!("{e:#}")))?)
-            }
-            Backend::Cluster(c) => Some(c.clone()),
-            Backend::InProcess { .. } => None,
-        };
+        let fleet = self.backend.connect().map_err(SessionError::Invalid)?;
         let mut run = StageRunner::new(&pool, &self.progress, &self.cancel);
         let job = JobInputs {
             sketch: self.sketch.clone(),
             exemplars: &self.exemplars,
             backend: &self.backend,
-            cluster: cluster.as_ref(),
+            fleet: fleet.as_ref(),
             settings: set,
         };
         let (output, mut report) = synthesize(&mut run, job)?;
-        if let (Some(cluster), Some(cache)) = (&cluster, &set.cache_dir) {
-            // the next job's shards are sized by what this one measured
-            if let Err(e) = cluster.rates.save(cache) {
-                tracing::warn!(cache = %cache.display(), error = %e, "worker throughput not saved");
-            }
+        if let (Some(fleet), Some(cache)) = (&fleet, &set.cache_dir) {
+            crate::stages::exemplars::remember_throughput(fleet, cache);
         }
         let files = match &self.outputs {
             None => Vec::new(),

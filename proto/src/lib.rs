@@ -18,5 +18,9 @@ pub const FILL_VERSION: u32 = 1;
 
 pub mod convert;
 
+/// Metadata key carrying the coordinator's job id on every call, so a worker's log
+/// lines for a job name it.
+pub const JOB_ID_HEADER: &str = "x-ridgeline-job";
+
 /// Largest message either side accepts (a block of best-sets carries candidate pixels).
 pub const MAX_MESSAGE_BYTES: usize = 256 << 20;

@@ -7,7 +7,6 @@
 
 use crate::error::{Result, TerrainError};
 use crate::grid::{Grid, Heightfield};
-pub use crate::outputs::{encode_tiff_f32, write_heightfield, Png16Sidecar};
 use std::io::Write;
 use std::path::Path;
 

@@ -1,14 +1,49 @@
 //! The scoring backends a shard runs on: one trait, a CPU backend (the rayon kernels
-//! of `patch_matching` and `fill_scoring`, which are also the GPU kernels' twins) and
-//! a GPU backend (the WGSL kernels of `shaders/` through `gpu`). Both return the same
-//! bytes: see `patch_matching`'s header for how.
+//! of `patch_matching` and `fill_scoring`, which are also the GPU kernels' twins) and,
+//! with the `gpu` feature, a GPU backend (the WGSL kernels of `shaders/` through
+//! `gpu`). Both return the same bytes: see `patch_matching`'s header for how.
 
+use crate::device::{BackendInfo, GpuError, GpuMode};
 use crate::exemplar_store::Source;
-use crate::gpu::{fill, round1, BackendInfo, GpuContext};
+#[cfg(feature = "gpu")]
+use crate::gpu::{fill, round1, GpuContext};
 use crate::{fill_scoring, patch_matching};
 use rayon::prelude::*;
 use ridgeline_terrain::shard::{BestSet, FillBestSet, FillQuery, UserPatchQuery};
+#[cfg(feature = "gpu")]
 use std::sync::Arc;
+
+/// The device shards score on, opened once and shared by every shard of the process.
+/// With the `gpu` feature it is the open GPU (`gpu::GpuContext`, wgpu on Vulkan);
+/// without it there is no device to have, `auto` and `off` score on the CPU, and `on`
+/// or `software` is refused with a message saying how to build one that can.
+#[cfg(feature = "gpu")]
+pub type Device = std::sync::Arc<crate::gpu::GpuContext>;
+
+/// A build without the GPU backend has no device: this type has no value.
+#[cfg(not(feature = "gpu"))]
+#[derive(Debug, Clone)]
+pub enum Device {}
+
+/// Opens the device `mode` asks for: `Ok(None)` means score on the CPU (mode off, or
+/// auto without a GPU).
+pub fn open_device(mode: GpuMode) -> Result<Option<Device>, GpuError> {
+    #[cfg(feature = "gpu")]
+    return crate::gpu::GpuContext::open(mode);
+    #[cfg(not(feature = "gpu"))]
+    match mode {
+        GpuMode::Auto | GpuMode::Off => Ok(None),
+        GpuMode::On | GpuMode::Software => Err(GpuError::NotBuilt(mode)),
+    }
+}
+
+/// What `device` is.
+pub fn device_info(device: &Device) -> BackendInfo {
+    #[cfg(feature = "gpu")]
+    return device.info.clone();
+    #[cfg(not(feature = "gpu"))]
+    match *device {}
+}
 
 /// Scores a shard's candidates.
 pub trait ScoringBackend: Send + Sync + std::fmt::Debug {
@@ -72,6 +107,7 @@ impl ScoringBackend for CpuBackend {
 /// The GPU backend: a shard's data resident on the device (heights and feature nodes
 /// for round 1, the featureless pool for hole filling). A kernel call that fails is
 /// logged and answered by the CPU backend, which gives the same bytes.
+#[cfg(feature = "gpu")]
 #[derive(Debug)]
 pub struct GpuBackend {
     ctx: Arc<GpuContext>,
@@ -79,6 +115,7 @@ pub struct GpuBackend {
     fill: fill::Resident,
 }
 
+#[cfg(feature = "gpu")]
 impl GpuBackend {
     /// Uploads the shard's sources (patch side `patch`) to the device.
     pub fn new(ctx: Arc<GpuContext>, sources: &[Source], patch: usize) -> Result<Self, String> {
@@ -94,6 +131,7 @@ impl GpuBackend {
     }
 }
 
+#[cfg(feature = "gpu")]
 impl ScoringBackend for GpuBackend {
     fn info(&self) -> BackendInfo {
         self.ctx.info.clone()

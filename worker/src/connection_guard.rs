@@ -113,7 +113,7 @@ impl Connected for Guarded {
 
 fn refused(caller: SocketAddr, reason: &'static str) {
     tracing::warn!(%caller, reason, "connection refused");
-    crate::metrics::metrics().refused("connection", reason);
+    ridgeline_ops::metrics::metrics().refused("connection", reason);
 }
 
 /// Accepts connections on `listener` under `limits`; yields those that may reach the

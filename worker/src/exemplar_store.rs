@@ -19,7 +19,7 @@ pub struct ShardConfig {
     pub max_side: u32,
     pub cache: Option<FeatureCache>,
     /// The device to keep the shard resident on and score with; `None`: the CPU.
-    pub gpu: Option<std::sync::Arc<crate::gpu::GpuContext>>,
+    pub gpu: Option<crate::Device>,
 }
 
 /// One loaded exemplar.

@@ -9,12 +9,13 @@
 //! requests get `invalid_argument`, unknown shards `not_found`; the worker keeps
 //! serving.
 
-use crate::metrics::metrics;
 use crate::{FeatureCache, InProcessShard, ShardConfig};
 use prost::Message;
+use ridgeline_ops::metrics::metrics;
 use ridgeline_proto::convert::*;
 use ridgeline_proto::v1;
 use ridgeline_proto::v1::worker_server::{Worker, WorkerServer};
+use ridgeline_proto::JOB_ID_HEADER;
 use ridgeline_proto::{MAX_MESSAGE_BYTES, PROTOCOL_VERSION};
 use ridgeline_terrain::library::ExemplarSpec;
 use ridgeline_terrain::shard::{ShardError, ShardScorer};
@@ -39,7 +40,7 @@ pub struct WorkerConfig {
     pub max_shards: usize,
     pub threads: usize,
     /// The device shards are scored on; `None`: the CPU.
-    pub gpu: Option<Arc<crate::GpuContext>>,
+    pub gpu: Option<crate::Device>,
     /// Connection limits (handshake timeout, caps).
     pub connections: crate::connection_guard::Limits,
 }
@@ -88,7 +89,7 @@ impl WorkerService {
     /// What the worker scores on.
     pub fn backend_info(&self) -> crate::BackendInfo {
         match &self.cfg.gpu {
-            Some(g) => g.info.clone(),
+            Some(g) => crate::device_info(g),
             None => crate::BackendInfo::cpu(self.pool.current_num_threads()),
         }
     }
@@ -106,23 +107,11 @@ fn shard_status(e: ShardError) -> Status {
     }
 }
 
-/// Whether an `authorization` value is `Bearer {token}`, compared in constant time
-/// (the gRPC workers and the HTTP service share it).
-pub fn bearer_matches(got: &str, token: &str) -> bool {
-    let want = format!("Bearer {token}");
-    let (a, b) = (got.as_bytes(), want.as_bytes());
-    let mut diff = (a.len() ^ b.len()) as u8;
-    for i in 0..a.len().min(b.len()) {
-        diff |= a[i] ^ b[i];
-    }
-    diff == 0 && a.len() == b.len()
-}
-
 /// Checks the bearer token in constant time.
 pub fn check_token(expected: &Option<String>, req: &Request<()>) -> Result<(), Status> {
     let Some(tok) = expected else { return Ok(()) };
     let got = req.metadata().get("authorization").and_then(|v| v.to_str().ok()).unwrap_or("");
-    if bearer_matches(got, tok) {
+    if ridgeline_ops::auth::bearer_matches(got, tok) {
         Ok(())
     } else {
         let caller = req.remote_addr().map(|a| a.to_string()).unwrap_or_else(|| "unknown".into());
@@ -131,9 +120,6 @@ pub fn check_token(expected: &Option<String>, req: &Request<()>) -> Result<(), S
         Err(Status::unauthenticated("missing or wrong cluster token"))
     }
 }
-
-/// Metadata key carrying the coordinator's job id on every call.
-pub const JOB_ID_HEADER: &str = "x-ridgeline-job";
 
 /// The coordinator's job id of a call ("-" where it sent none).
 pub fn job_of<T>(req: &Request<T>) -> String {

@@ -7,20 +7,24 @@
 
 pub mod backend;
 pub mod candidates;
+#[cfg(feature = "service")]
 pub mod connection_guard;
+pub mod device;
 pub mod exemplar_store;
 pub mod feature_cache;
 pub mod fill_scoring;
+#[cfg(feature = "gpu")]
 pub mod gpu;
+#[cfg(feature = "service")]
 pub mod grpc_service;
-pub mod metrics;
 pub mod patch_matching;
 
+pub use backend::{device_info, open_device, Device};
+pub use device::{BackendInfo, GpuError, GpuMode};
 pub use exemplar_store::{load_source, ShardConfig, Source};
 pub use feature_cache::FeatureCache;
-pub use gpu::{BackendInfo, GpuContext, GpuMode};
 
-use backend::{CpuBackend, GpuBackend, ScoringBackend};
+use backend::{CpuBackend, ScoringBackend};
 use rayon::prelude::*;
 use ridgeline_terrain::feature_extraction::PerKind;
 use ridgeline_terrain::library::ExemplarSpec;
@@ -90,13 +94,16 @@ impl InProcessShard {
         }
         let maps = Arc::new(ridgeline_terrain::patch_geometry::variant_maps(cfg.patch));
         let backend: Arc<dyn ScoringBackend> = match &cfg.gpu {
-            Some(ctx) => match GpuBackend::new(ctx.clone(), &sources, cfg.patch) {
+            #[cfg(feature = "gpu")]
+            Some(ctx) => match backend::GpuBackend::new(ctx.clone(), &sources, cfg.patch) {
                 Ok(b) => Arc::new(b),
                 Err(e) => {
                     tracing::warn!(reason = %e, "shard scored on the CPU");
                     Arc::new(CpuBackend)
                 }
             },
+            #[cfg(not(feature = "gpu"))]
+            Some(none) => match *none {},
             None => Arc::new(CpuBackend),
         };
         InProcessShard { sources: Arc::new(sources), skipped, patch: cfg.patch, maps, backend, clock: Default::default() }

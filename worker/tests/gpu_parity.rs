@@ -8,9 +8,10 @@ use ridgeline_terrain::patch_geometry::{normalise_profile, ProfilePath, FEATURE_
 use ridgeline_terrain::shard::UserPatchQuery;
 use ridgeline_worker::backend::{CpuBackend, GpuBackend, ScoringBackend};
 use ridgeline_worker::candidates::FeatureNode;
-use ridgeline_worker::gpu::{round1, GpuContext, GpuError, GpuMode};
+use ridgeline_worker::gpu::{round1, GpuContext};
 use ridgeline_worker::patch_matching::{rank_cost, variant_offsets, DELTA};
 use ridgeline_worker::Source;
+use ridgeline_worker::{GpuError, GpuMode};
 use std::sync::Arc;
 
 const PATCH: usize = 32;

@@ -1,7 +1,7 @@
 //! Connections to the workers: one lazily opened channel per worker, the cluster
 //! token on every call, capability checks at start, and which workers are alive.
 
-use super::{ClusterConfig, ClusterError};
+use super::config::{ClusterConfig, ClusterError};
 use ridgeline_proto::v1;
 use ridgeline_proto::v1::worker_client::WorkerClient;
 use ridgeline_proto::MAX_MESSAGE_BYTES;
@@ -28,7 +28,7 @@ impl tonic::service::Interceptor for Auth {
             req.metadata_mut().insert("authorization", v.clone());
         }
         if let Some(v) = &self.job {
-            req.metadata_mut().insert(ridgeline_worker::grpc_service::JOB_ID_HEADER, v.clone());
+            req.metadata_mut().insert(ridgeline_proto::JOB_ID_HEADER, v.clone());
         }
         Ok(req)
     }
@@ -48,14 +48,14 @@ impl TransferStats {
     pub(crate) fn add_call(&self, request: u64, reply: u64) {
         self.request_bytes.fetch_add(request, Ordering::Relaxed);
         self.reply_bytes.fetch_add(reply, Ordering::Relaxed);
-        let m = ridgeline_worker::metrics::metrics();
+        let m = ridgeline_ops::metrics::metrics();
         m.coordinator_bytes_out.inc_by(request);
         m.coordinator_bytes_in.inc_by(reply);
     }
 
     pub(crate) fn add_exemplar(&self, bytes: u64) {
         self.exemplar_bytes.fetch_add(bytes, Ordering::Relaxed);
-        ridgeline_worker::metrics::metrics().coordinator_bytes_out.inc_by(bytes);
+        ridgeline_ops::metrics::metrics().coordinator_bytes_out.inc_by(bytes);
     }
 }
 
@@ -299,7 +299,7 @@ impl Cluster {
     pub(crate) fn mark_dead(&self, w: usize, why: &Status) {
         if self.alive[w].swap(false, Ordering::SeqCst) {
             tracing::warn!(worker = %self.url(w), code = ?why.code(), error = %why.message(), "worker marked dead");
-            ridgeline_worker::metrics::metrics().coordinator_workers_dead.inc();
+            ridgeline_ops::metrics::metrics().coordinator_workers_dead.inc();
         }
         if let Ok(mut c) = self.channels[w].lock() {
             *c = None;

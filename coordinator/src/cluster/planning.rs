@@ -5,7 +5,7 @@
 //! the same time.
 
 use super::connection::Cluster;
-use super::remote_shard::RemoteShard;
+use super::remote_shard::{RemoteExemplar, RemoteShard};
 use ridgeline_proto::v1;
 use ridgeline_terrain::library::ExemplarSpec;
 use ridgeline_terrain::shard::{ShardError, ShardScorer};
@@ -13,14 +13,6 @@ use sha2::{Digest, Sha256};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-
-/// One exemplar as the cluster sees it.
-#[derive(Debug, Clone)]
-pub struct RemoteExemplar {
-    pub wire: v1::ExemplarRef,
-    pub path: PathBuf,
-    pub extension: String,
-}
 
 /// Hashes the exemplars of a library for upload (SHA-256 of each file).
 pub fn remote_exemplars(items: &[(u32, ExemplarSpec)]) -> Result<Vec<RemoteExemplar>, ridgeline_terrain::TerrainError> {

@@ -4,7 +4,6 @@
 //! failure retries with backoff, then moves the shard to the next live worker.
 
 use super::connection::{retryable, Cluster};
-use super::planning::RemoteExemplar;
 use prost::Message;
 use ridgeline_proto::convert::*;
 use ridgeline_proto::v1;
@@ -13,6 +12,7 @@ use ridgeline_terrain::shard::{
     ShardTimes, SkippedExemplar, SourceInfo, UserPatchQuery,
 };
 use sha2::{Digest, Sha256};
+use std::path::PathBuf;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -35,6 +35,14 @@ pub struct RemoteShard {
     state: Mutex<ShardState>,
     next_block: AtomicU32,
     clock: ShardClock,
+}
+
+/// One exemplar as the cluster sees it.
+#[derive(Debug, Clone)]
+pub struct RemoteExemplar {
+    pub wire: v1::ExemplarRef,
+    pub path: PathBuf,
+    pub extension: String,
 }
 
 const CHUNK: usize = 1 << 20;
@@ -161,7 +169,7 @@ impl RemoteShard {
                         }
                         tracing::warn!(worker = %self.cluster.url(w), attempt, error = %s.message(), "worker call failed");
                         if attempt < 2 {
-                            ridgeline_worker::metrics::metrics().coordinator_retries.inc();
+                            ridgeline_ops::metrics::metrics().coordinator_retries.inc();
                         }
                         last = s;
                     }
@@ -191,7 +199,7 @@ impl RemoteShard {
             ))
         })?;
         tracing::warn!(shard = %self.key, from = %self.cluster.url(w), to = %self.cluster.url(next), "shard reassigned");
-        ridgeline_worker::metrics::metrics().coordinator_reassignments.inc();
+        ridgeline_ops::metrics::metrics().coordinator_reassignments.inc();
         st.worker = next;
         Ok(())
     }
@@ -273,7 +281,7 @@ impl ShardScorer for RemoteShard {
         let _span = tracing::debug_span!("worker_call", shard = %self.key, block = req.block_index).entered();
         let t = std::time::Instant::now();
         let reply = self.with_failover(|s, st| s.score_once(st, &req));
-        ridgeline_worker::metrics::metrics().coordinator_call("round1", reply.is_ok());
+        ridgeline_ops::metrics::metrics().coordinator_call("round1", reply.is_ok());
         let reply = reply?;
         let samples = round1_samples(&self.counts().0, block);
         self.measured(t.elapsed().as_secs_f64(), samples, true);
@@ -302,7 +310,7 @@ impl ShardScorer for RemoteShard {
                     .map(|r| r.into_inner())
             })
         });
-        ridgeline_worker::metrics::metrics().coordinator_call("fill", reply.is_ok());
+        ridgeline_ops::metrics::metrics().coordinator_call("fill", reply.is_ok());
         let reply = reply?;
         self.measured(t.elapsed().as_secs_f64(), fill_samples(self.counts().1, targets), false);
         let stats = &self.cluster.stats;

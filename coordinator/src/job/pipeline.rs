@@ -35,7 +35,7 @@ use super::SynthError;
 use crate::canvas::Canvas;
 use crate::evaluation::quality::{adherence, seam_score};
 use crate::progress::Stage;
-use crate::stages::exemplars::{self, Backend, ExemplarSource, LoadSettings};
+use crate::stages::exemplars::{self, Backend, ExemplarSource, Fleet, LoadSettings};
 use crate::stages::feature_placement::{place_features, PlacementSettings};
 use crate::stages::hole_filling::fill_holes;
 use crate::stages::sketch::{self, SketchFeatures};
@@ -43,7 +43,6 @@ use crate::stages::sketch_fit::{fit_to_sketch, FitStats};
 use crate::stages::user_patches::{count_by_kind, user_patches, UserPatch};
 use ridgeline_terrain::grid::{Grid, Heightfield};
 use ridgeline_terrain::shard::ShardTimes;
-use std::sync::Arc;
 
 /// What the stages made.
 pub struct SynthOutput {
@@ -69,7 +68,7 @@ pub struct JobInputs<'a> {
     pub exemplars: &'a ExemplarSource,
     pub backend: &'a Backend,
     /// The fleet, connected, when the backend is one.
-    pub cluster: Option<&'a Arc<crate::cluster::Cluster>>,
+    pub fleet: Option<&'a Fleet>,
     pub settings: &'a JobSettings,
 }
 
@@ -78,13 +77,9 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
     let set = job.settings;
     let p = set.patch;
     let (w, h) = (job.sketch.width, job.sketch.height);
-    let in_process = match job.backend {
-        Backend::InProcess { gpu, shards } => (*gpu, *shards),
-        _ => (ridgeline_worker::GpuMode::Off, 1),
-    };
+    let in_process = job.backend.in_process();
     let load = LoadSettings { patch: p, cell_size: set.cell_size, max_side: set.max_side, cache_dir: set.cache_dir.clone() };
-    let ex =
-        run.run(Stage::Exemplars, |cx| Ok(cx.install(|| exemplars::load(job.exemplars, job.cluster, in_process, &load))?))?;
+    let ex = run.run(Stage::Exemplars, |cx| Ok(cx.install(|| exemplars::load(job.exemplars, job.fleet, in_process, &load))?))?;
     let shards = &ex.shards;
     let times_before: Vec<ShardTimes> = shards.iter().map(|s| s.times()).collect();
 

@@ -94,7 +94,8 @@ impl<'a> StageRunner<'a> {
     /// (round-1 scoring on feature placement's producer thread).
     pub fn record(&mut self, stage: &'static str, seconds: f64) {
         tracing::info!(stage, seconds, "stage done");
-        ridgeline_worker::metrics::metrics().stage(stage, seconds);
+        #[cfg(feature = "metrics")]
+        ridgeline_ops::metrics::metrics().stage(stage, seconds);
         self.timings.push(StageTiming { stage, seconds });
     }
 

@@ -15,7 +15,7 @@
 //! Every error is JSON `{"error": "..."}` with a sentence a person understands.
 
 use super::jobs::{JobEvent, SubmitError};
-use super::AppState;
+use super::state::AppState;
 use crate::outputs::OutputFiles;
 use crate::session::{ExemplarSource, Session, SketchSource, StrokeSketch};
 use axum::body::Bytes;

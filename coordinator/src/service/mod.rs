@@ -14,9 +14,11 @@
 
 pub mod api;
 pub mod jobs;
+pub mod state;
 pub mod web;
 
-use crate::session::Backend;
+pub use state::{AppState, LibraryIndex, ServiceConfig, THUMBNAIL_SIDE};
+
 use axum::extract::{DefaultBodyLimit, Request, State};
 use axum::http::StatusCode;
 use axum::middleware::Next;
@@ -24,50 +26,8 @@ use axum::response::{IntoResponse, Response};
 use axum::routing::{get, post};
 use axum::Router;
 use jobs::JobQueue;
-use ridgeline_terrain::library::{scan_library, ExemplarSpec};
-use std::collections::BTreeMap;
 use std::path::PathBuf;
-use std::sync::{Arc, Mutex};
-
-/// Settings of the service.
-#[derive(Debug, Clone)]
-pub struct ServiceConfig {
-    /// The exemplar library (folder or manifest) jobs draw from.
-    pub library: PathBuf,
-    /// Where jobs' folders go.
-    pub jobs_dir: PathBuf,
-    pub backend: Backend,
-    /// Token clients must present; required beyond loopback.
-    pub token: Option<String>,
-    /// Most jobs waiting.
-    pub max_queue: usize,
-    /// Finished jobs remembered (their files kept).
-    pub keep_jobs: usize,
-    /// Largest request body in bytes.
-    pub max_body: usize,
-    /// Largest sketch or output side.
-    pub max_side: u32,
-    /// Threads per job (0 = all cores).
-    pub threads: usize,
-    pub cache_dir: Option<PathBuf>,
-}
-
-impl Default for ServiceConfig {
-    fn default() -> Self {
-        ServiceConfig {
-            library: PathBuf::new(),
-            jobs_dir: std::env::temp_dir().join("ridgeline-jobs"),
-            backend: Backend::default(),
-            token: None,
-            max_queue: 8,
-            keep_jobs: 32,
-            max_body: 32 << 20,
-            max_side: 8192,
-            threads: 0,
-            cache_dir: Some(ridgeline_worker::FeatureCache::default_dir()),
-        }
-    }
-}
+use std::sync::Arc;
 
 /// Why the service could not start.
 #[derive(Debug, thiserror::Error)]
@@ -84,56 +44,6 @@ pub enum ServiceError {
     Io(#[from] std::io::Error),
 }
 
-/// The library as the page sees it: names, sizes, thumbnails made on first request.
-pub struct LibraryIndex {
-    specs: Vec<ExemplarSpec>,
-    thumbs: Mutex<BTreeMap<String, Arc<Vec<u8>>>>,
-    max_side: u32,
-}
-
-/// Side of an exemplar thumbnail in pixels (the longer side).
-pub const THUMBNAIL_SIDE: usize = 96;
-
-impl LibraryIndex {
-    pub fn scan(library: &std::path::Path, max_side: u32) -> Result<Self, ServiceError> {
-        let specs = scan_library(library)?;
-        if specs.is_empty() {
-            return Err(ServiceError::EmptyLibrary(library.to_path_buf()));
-        }
-        Ok(LibraryIndex { specs, thumbs: Mutex::new(BTreeMap::new()), max_side })
-    }
-
-    /// Name and cell size of every exemplar.
-    pub fn entries(&self) -> Vec<serde_json::Value> {
-        self.specs.iter().map(|s| serde_json::json!({ "name": s.name(), "cell_size_m": s.cell_size_m })).collect()
-    }
-
-    /// A small hillshade of exemplar `name` as PNG.
-    pub fn thumbnail(&self, name: &str) -> Result<Vec<u8>, String> {
-        if let Some(t) = self.thumbs.lock().unwrap_or_else(|e| e.into_inner()).get(name) {
-            return Ok(t.to_vec());
-        }
-        let spec = self.specs.iter().find(|s| s.name() == name).ok_or_else(|| format!("no exemplar '{name}' in the library"))?;
-        let h = ridgeline_terrain::library::load_exemplar(spec, None, self.max_side).map_err(|e| e.to_string())?;
-        let scale = (h.width.max(h.height) as f32 / THUMBNAIL_SIDE as f32).max(1.0);
-        let (w, hh) = (((h.width as f32 / scale) as usize).max(1), ((h.height as f32 / scale) as usize).max(1));
-        let small = h.resample(w, hh);
-        let cell = spec.cell_size_m.unwrap_or(90.0) * scale;
-        let img = ridgeline_terrain::io::hillshade(&small, cell);
-        let mut png = Vec::new();
-        img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png).map_err(|e| e.to_string())?;
-        self.thumbs.lock().unwrap_or_else(|e| e.into_inner()).insert(name.to_string(), Arc::new(png.clone()));
-        Ok(png)
-    }
-}
-
-/// What every handler shares.
-pub struct AppState {
-    pub config: ServiceConfig,
-    pub queue: JobQueue,
-    pub library: LibraryIndex,
-}
-
 /// Refuses API calls without the token (when one is set).
 async fn require_token(State(st): State<Arc<AppState>>, req: Request, next: Next) -> Response {
     let Some(token) = &st.config.token else { return next.run(req).await };
@@ -146,9 +56,7 @@ async fn require_token(State(st): State<Arc<AppState>>, req: Request, next: Next
         .find_map(|kv| kv.strip_prefix("token="))
         .map(|t| format!("Bearer {t}"))
         .unwrap_or_default();
-    if ridgeline_worker::grpc_service::bearer_matches(header, token)
-        || ridgeline_worker::grpc_service::bearer_matches(&query_token, token)
-    {
+    if ridgeline_ops::auth::bearer_matches(header, token) || ridgeline_ops::auth::bearer_matches(&query_token, token) {
         return next.run(req).await;
     }
     tracing::warn!(path = %req.uri().path(), "request refused: missing or wrong token");
@@ -211,7 +119,8 @@ pub async fn serve(
         return Err(ServiceError::NoToken(addr));
     }
     std::fs::create_dir_all(&config.jobs_dir).map_err(|e| ServiceError::JobsDir(config.jobs_dir.clone(), e))?;
-    let library = LibraryIndex::scan(&config.library, config.max_side)?;
+    let library = LibraryIndex::scan(&config.library, config.max_side)?
+        .ok_or_else(|| ServiceError::EmptyLibrary(config.library.clone()))?;
     let queue = JobQueue::new(config.jobs_dir.clone(), config.max_queue, config.keep_jobs);
     let runner = {
         let q = queue.clone();

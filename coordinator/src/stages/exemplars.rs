@@ -10,7 +10,7 @@ use ridgeline_terrain::grid::Heightfield;
 use ridgeline_terrain::library::{common_cell_size, scan_library, ExemplarSpec};
 use ridgeline_terrain::shard::{ShardError, ShardScorer};
 use ridgeline_terrain::TerrainError;
-use ridgeline_worker::{FeatureCache, GpuContext, GpuMode, InProcessShard, ShardConfig};
+use ridgeline_worker::{open_device, FeatureCache, GpuMode, InProcessShard, ShardConfig};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -47,15 +47,61 @@ pub enum Backend {
     /// Shards in this process, on the CPU or the GPU.
     InProcess { gpu: GpuMode, shards: usize },
     /// A fleet of gRPC workers, connected when the job runs.
+    #[cfg(feature = "fleet")]
     Fleet(crate::cluster::ClusterConfig),
     /// A fleet already connected (its transfer figures and live workers can be read
     /// after the job).
-    Cluster(Arc<crate::cluster::Cluster>),
+    #[cfg(feature = "fleet")]
+    Cluster(Fleet),
 }
 
 impl Default for Backend {
     fn default() -> Self {
         Backend::InProcess { gpu: GpuMode::Auto, shards: 1 }
+    }
+}
+
+/// A connected fleet of gRPC workers (the `fleet` feature; without it there is none).
+#[cfg(feature = "fleet")]
+pub type Fleet = Arc<crate::cluster::Cluster>;
+/// A build without the `fleet` feature has no fleet: this type has no value.
+#[cfg(not(feature = "fleet"))]
+#[derive(Debug, Clone)]
+pub enum Fleet {}
+
+impl Backend {
+    /// The fleet to score on, connected (`None`: in this process).
+    pub fn connect(&self) -> Result<Option<Fleet>, String> {
+        match self {
+            Backend::InProcess { .. } => Ok(None),
+            #[cfg(feature = "fleet")]
+            Backend::Fleet(c) => crate::cluster::Cluster::connect(c.clone()).map(Some).map_err(|e| format!("{e:#}")),
+            #[cfg(feature = "fleet")]
+            Backend::Cluster(c) => Ok(Some(c.clone())),
+        }
+    }
+
+    /// What in-process shards score on and how many there are (for a fleet: unused).
+    pub fn in_process(&self) -> (GpuMode, usize) {
+        match self {
+            Backend::InProcess { gpu, shards } => (*gpu, *shards),
+            #[allow(unreachable_patterns)]
+            _ => (GpuMode::Off, 1),
+        }
+    }
+}
+
+/// After a job on `fleet`: keeps each worker's measured throughput in the cache
+/// folder, so the next job's shards are sized by it.
+pub fn remember_throughput(fleet: &Fleet, cache: &Path) {
+    #[cfg(feature = "fleet")]
+    if let Err(e) = fleet.rates.save(cache) {
+        tracing::warn!(cache = %cache.display(), error = %e, "worker throughput not saved");
+    }
+    #[cfg(not(feature = "fleet"))]
+    {
+        let _ = cache;
+        match *fleet {}
     }
 }
 
@@ -85,14 +131,14 @@ pub enum ExemplarsError {
     #[error(transparent)]
     Shard(#[from] ShardError),
     #[error(transparent)]
-    Gpu(#[from] ridgeline_worker::gpu::GpuError),
+    Gpu(#[from] ridgeline_worker::GpuError),
 }
 
-/// Loads `source` into shards: on `cluster`'s workers when there is one, else into
+/// Loads `source` into shards: on the `fleet`'s workers when there is one, else into
 /// `parts` in-process shards scored as `gpu` says.
 pub fn load(
     source: &ExemplarSource,
-    cluster: Option<&Arc<crate::cluster::Cluster>>,
+    fleet: Option<&Fleet>,
     (gpu, parts): (GpuMode, usize),
     set: &LoadSettings,
 ) -> Result<Exemplars, ExemplarsError> {
@@ -102,7 +148,7 @@ pub fn load(
             out_cell: cell,
             max_side: set.max_side,
             cache: set.cache_dir.clone().map(FeatureCache::new),
-            gpu: if cluster.is_none() { GpuContext::open(gpu)? } else { None },
+            gpu: if fleet.is_none() { open_device(gpu)? } else { None },
         })
     };
     let (shards, cell, what): (Shards, Option<f32>, PathBuf) = match source {
@@ -113,8 +159,11 @@ pub fn load(
             }
             let cell = set.cell_size.or_else(|| common_cell_size(&specs));
             let items: Vec<(u32, ExemplarSpec)> = specs.into_iter().enumerate().map(|(i, s)| (i as u32, s)).collect();
-            let shards: Shards = match cluster {
+            let shards: Shards = match fleet {
+                #[cfg(feature = "fleet")]
                 Some(c) => crate::cluster::remote_shards(c, &items, set.patch, cell, set.cache_dir.as_deref())?,
+                #[cfg(not(feature = "fleet"))]
+                Some(none) => match *none {},
                 None => {
                     let cfg = shard_cfg(cell)?;
                     split(&items, parts).into_iter().map(|part| shard(InProcessShard::load(&part, &cfg))).collect()

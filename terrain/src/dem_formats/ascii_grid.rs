@@ -2,7 +2,7 @@
 //! `yllcorner`|`yllcenter`, `cellsize` and optional `NODATA_value`, then `nrows`
 //! rows of `ncols` numbers, north row first.
 
-use super::{check_size, invalid, DemRaster};
+use super::raster::{check_size, invalid, DemRaster};
 use crate::error::Result;
 use crate::grid::Grid;
 use std::path::Path;

@@ -1,7 +1,7 @@
 //! SRTM `.hgt`: a square of big-endian signed 16-bit metres, no header; the side
 //! follows from the file length (1201 for 3", 3601 for 1"); −32768 marks voids.
 
-use super::{check_size, invalid, DemRaster};
+use super::raster::{check_size, invalid, DemRaster};
 use crate::error::Result;
 use crate::grid::Grid;
 use std::path::Path;

@@ -9,24 +9,17 @@
 
 mod ascii_grid;
 mod hgt;
+mod raster;
 mod tiff_dem;
 
 use crate::error::{Result, TerrainError};
-use crate::grid::Grid;
 use std::path::Path;
 
 pub use ascii_grid::{encode_ascii_grid, parse_ascii_grid};
 pub use hgt::{encode_hgt, parse_hgt};
+pub use raster::DemRaster;
+pub(crate) use raster::{check_size, invalid};
 pub use tiff_dem::parse_tiff;
-
-/// A decoded elevation raster, in the file's own vertical unit.
-#[derive(Debug, Clone, PartialEq)]
-pub struct DemRaster {
-    /// Heights; `NaN` where the file has no data.
-    pub heights: Grid<f32>,
-    /// Cell size in metres where the file says (GeoTIFF, ASCII grid, SRTM).
-    pub cell_size_m: Option<f32>,
-}
 
 /// File extensions the library accepts as DEMs.
 pub const DEM_EXTENSIONS: [&str; 5] = ["png", "tif", "tiff", "hgt", "asc"];
@@ -34,26 +27,6 @@ pub const DEM_EXTENSIONS: [&str; 5] = ["png", "tif", "tiff", "hgt", "asc"];
 /// Whether `path` has a DEM extension.
 pub fn is_dem_path(path: &Path) -> bool {
     path.extension().map(|e| DEM_EXTENSIONS.contains(&e.to_string_lossy().to_ascii_lowercase().as_str())).unwrap_or(false)
-}
-
-pub(crate) fn invalid(path: &Path, message: impl Into<String>) -> TerrainError {
-    TerrainError::Invalid { path: path.to_path_buf(), message: message.into() }
-}
-
-/// Refuses a raster larger than `max_side` on either side (before allocation).
-pub(crate) fn check_size(path: &Path, w: u64, h: u64, max_side: u32) -> Result<()> {
-    if w == 0 || h == 0 {
-        return Err(invalid(path, "raster has zero width or height"));
-    }
-    if w > max_side as u64 || h > max_side as u64 {
-        return Err(TerrainError::TooLarge {
-            path: path.to_path_buf(),
-            width: w.min(u32::MAX as u64) as u32,
-            height: h.min(u32::MAX as u64) as u32,
-            limit: max_side,
-        });
-    }
-    Ok(())
 }
 
 /// The cell size a DEM file declares itself (SRTM side, ASCII grid header, GeoTIFF
@@ -133,6 +106,7 @@ pub fn read_dem(path: &Path, nodata: Option<f32>, max_side: u32) -> Result<DemRa
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::grid::Grid;
 
     fn tmp(name: &str) -> std::path::PathBuf {
         let d = std::env::temp_dir().join(format!("rl-dem-{}-{name}", std::process::id()));

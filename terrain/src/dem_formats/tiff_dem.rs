@@ -3,7 +3,7 @@
 //! 0.1 are converted to metres at the tie point's latitude) and GDAL's nodata tag the
 //! void value.
 
-use super::{check_size, invalid, DemRaster};
+use super::raster::{check_size, invalid, DemRaster};
 use crate::error::{Result, TerrainError};
 use crate::grid::Grid;
 use std::path::Path;

@@ -1,7 +1,7 @@
 //! PPA steps 3 and 4: polygon breaking by maximum spanning forest (Kruskal), and
 //! branch reduction. Also the pixel feature graph every later stage walks.
 
-use super::{Segment, DIRS};
+use super::segments::{Segment, DIRS};
 use std::collections::VecDeque;
 
 /// A forest on the pixel lattice: for every cell, a bit mask of the 8 neighbours it

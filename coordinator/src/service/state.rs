@@ -1,0 +1,97 @@
+//! What the service's handlers share: its settings, the job queue and the library
+//! index (names, cell sizes and thumbnails of the exemplars).
+
+use super::jobs::JobQueue;
+use crate::session::Backend;
+use ridgeline_terrain::library::{scan_library, ExemplarSpec};
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+
+/// Settings of the service.
+#[derive(Debug, Clone)]
+pub struct ServiceConfig {
+    /// The exemplar library (folder or manifest) jobs draw from.
+    pub library: PathBuf,
+    /// Where jobs' folders go.
+    pub jobs_dir: PathBuf,
+    pub backend: Backend,
+    /// Token clients must present; required beyond loopback.
+    pub token: Option<String>,
+    /// Most jobs waiting.
+    pub max_queue: usize,
+    /// Finished jobs remembered (their files kept).
+    pub keep_jobs: usize,
+    /// Largest request body in bytes.
+    pub max_body: usize,
+    /// Largest sketch or output side.
+    pub max_side: u32,
+    /// Threads per job (0 = all cores).
+    pub threads: usize,
+    pub cache_dir: Option<PathBuf>,
+}
+
+impl Default for ServiceConfig {
+    fn default() -> Self {
+        ServiceConfig {
+            library: PathBuf::new(),
+            jobs_dir: std::env::temp_dir().join("ridgeline-jobs"),
+            backend: Backend::default(),
+            token: None,
+            max_queue: 8,
+            keep_jobs: 32,
+            max_body: 32 << 20,
+            max_side: 8192,
+            threads: 0,
+            cache_dir: Some(ridgeline_worker::FeatureCache::default_dir()),
+        }
+    }
+}
+
+/// The library as the page sees it: names, sizes, thumbnails made on first request.
+pub struct LibraryIndex {
+    specs: Vec<ExemplarSpec>,
+    thumbs: Mutex<BTreeMap<String, Arc<Vec<u8>>>>,
+    max_side: u32,
+}
+
+/// Side of an exemplar thumbnail in pixels (the longer side).
+pub const THUMBNAIL_SIDE: usize = 96;
+
+impl LibraryIndex {
+    /// The exemplars of `library`; `None` when it holds none.
+    pub fn scan(library: &std::path::Path, max_side: u32) -> Result<Option<Self>, ridgeline_terrain::TerrainError> {
+        let specs = scan_library(library)?;
+        Ok((!specs.is_empty()).then(|| LibraryIndex { specs, thumbs: Mutex::new(BTreeMap::new()), max_side }))
+    }
+
+    /// Name and cell size of every exemplar.
+    pub fn entries(&self) -> Vec<serde_json::Value> {
+        self.specs.iter().map(|s| serde_json::json!({ "name": s.name(), "cell_size_m": s.cell_size_m })).collect()
+    }
+
+    /// A small hillshade of exemplar `name` as PNG.
+    pub fn thumbnail(&self, name: &str) -> Result<Vec<u8>, String> {
+        if let Some(t) = self.thumbs.lock().unwrap_or_else(|e| e.into_inner()).get(name) {
+            return Ok(t.to_vec());
+        }
+        let spec = self.specs.iter().find(|s| s.name() == name).ok_or_else(|| format!("no exemplar '{name}' in the library"))?;
+        let h = ridgeline_terrain::library::load_exemplar(spec, None, self.max_side).map_err(|e| e.to_string())?;
+        let scale = (h.width.max(h.height) as f32 / THUMBNAIL_SIDE as f32).max(1.0);
+        let (w, hh) = (((h.width as f32 / scale) as usize).max(1), ((h.height as f32 / scale) as usize).max(1));
+        let small = h.resample(w, hh);
+        let cell = spec.cell_size_m.unwrap_or(90.0) * scale;
+        let img = ridgeline_terrain::io::hillshade(&small, cell);
+        let mut png = Vec::new();
+        img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png).map_err(|e| e.to_string())?;
+        self.thumbs.lock().unwrap_or_else(|e| e.into_inner()).insert(name.to_string(), Arc::new(png.clone()));
+        Ok(png)
+    }
+}
+
+/// What every handler shares.
+pub struct AppState {
+    pub config: ServiceConfig,
+    pub queue: JobQueue,
+    pub library: LibraryIndex,
+}
