@@ -353,24 +353,26 @@ fn malformed_requests_get_errors_and_the_worker_keeps_serving() {
         });
         let e = c.missing_exemplars(v1::MissingRequest { content_hashes: vec!["../../etc/passwd".into()] }).await.unwrap_err();
         assert_eq!(e.code(), tonic::Code::InvalidArgument);
-        let e = c
-            .load_shard(v1::LoadShardRequest { shard_key: "s".into(), patch: 7, out_cell: None, exemplars: vec![] })
-            .await
-            .unwrap_err();
-        assert_eq!(e.code(), tonic::Code::InvalidArgument);
-        let bad_hash = v1::ExemplarRef {
-            source: 0,
-            name: "x".into(),
-            content_hash: "0".repeat(64),
-            cell_size_m: None,
-            to_metres: 1.0,
-            nodata: None,
-        };
-        let e = c
-            .load_shard(v1::LoadShardRequest { shard_key: "s".into(), patch: 64, out_cell: None, exemplars: vec![bad_hash] })
-            .await
-            .unwrap_err();
+        let level = |patch| v1::Level { patch, out_cell: None };
+        let load = |levels: Vec<v1::Level>, exemplars| v1::LoadShardRequest { shard_key: "s".into(), exemplars, levels };
+        for (levels, what) in [(vec![level(7)], "an odd patch"), (vec![], "no level"), (vec![level(64); 9], "too many levels")] {
+            let e = c.load_shard(load(levels, vec![])).await.unwrap_err();
+            assert_eq!(e.code(), tonic::Code::InvalidArgument, "{what}");
+        }
+        let bad_hash =
+            v1::ExemplarRef { source: 0, name: "x".into(), content_hash: "0".repeat(64), to_metres: 1.0, ..Default::default() };
+        let e = c.load_shard(load(vec![level(64)], vec![bad_hash])).await.unwrap_err();
         assert_eq!(e.code(), tonic::Code::FailedPrecondition, "an exemplar that was never uploaded");
+        let mut bad_recipe = v1::ExemplarRef {
+            source: 0,
+            name: "g".into(),
+            recipe_json: "{\"generator\": \"plasma\", \"params\": {}}".into(),
+            ..Default::default()
+        };
+        bad_recipe.set_kind(v1::ExemplarKind::Generator);
+        let e = c.load_shard(load(vec![level(64)], vec![bad_recipe])).await.unwrap_err();
+        assert_eq!(e.code(), tonic::Code::InvalidArgument, "an unknown generator");
+        assert!(e.message().contains("plasma"), "{}", e.message());
         let chunk =
             v1::ExemplarChunk { content_hash: "a".repeat(64), extension: "exe".into(), total_size: 3, data: vec![1, 2, 3] };
         let e = c.put_exemplar(tokio_stream::iter(vec![chunk])).await.unwrap_err();
@@ -379,7 +381,7 @@ fn malformed_requests_get_errors_and_the_worker_keeps_serving() {
             v1::ExemplarChunk { content_hash: "a".repeat(64), extension: "png".into(), total_size: 3, data: vec![1, 2, 3] };
         let e = c.put_exemplar(tokio_stream::iter(vec![chunk])).await.unwrap_err();
         assert_eq!(e.code(), tonic::Code::InvalidArgument, "content that does not match its hash");
-        let req = v1::ScoreRequest { shard_key: "nope".into(), block_index: 0, k: 5, queries: vec![] };
+        let req = v1::ScoreRequest { shard_key: "nope".into(), block_index: 0, k: 5, queries: vec![], level: 0 };
         let mut replies = c.score(tokio_stream::iter(vec![req])).await.unwrap().into_inner();
         assert_eq!(replies.message().await.unwrap_err().code(), tonic::Code::NotFound);
         let fill = |version: u32, k: u32| v1::FillRequest {
@@ -388,6 +390,7 @@ fn malformed_requests_get_errors_and_the_worker_keeps_serving() {
             k,
             seed: 0,
             targets: vec![v1::FillTarget { id: 0, relief: 1.0, ..Default::default() }],
+            level: 0,
         };
         let e = c.score_fill(fill(ridgeline_proto::FILL_VERSION, 5)).await.unwrap_err();
         assert_eq!(e.code(), tonic::Code::NotFound, "fill scoring on a shard that is not loaded");

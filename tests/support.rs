@@ -1,7 +1,7 @@
 //! Helpers shared by the end-to-end tests: where the shared data lives, and
 //! temporary folders.
 
-use ridgeline::session::{ExemplarSource, Session, SessionBuilder, SketchSource};
+use ridgeline::session::{Exemplars, Session, SessionBuilder, SketchSource};
 use std::path::{Path, PathBuf};
 
 /// A session on a sketch file and an exemplar library (a folder or manifest), with
@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 pub fn session(sketch: &Path, exemplars: &Path, cache: &Path) -> SessionBuilder {
     Session::builder()
         .sketch(SketchSource::File(sketch.to_path_buf()))
-        .exemplars(ExemplarSource::library(exemplars))
+        .exemplars(Exemplars::library(exemplars))
         .cache_dir(Some(cache.to_path_buf()))
 }
 

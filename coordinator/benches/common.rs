@@ -1,6 +1,6 @@
 //! Helpers shared by the benchmarks.
 
-use ridgeline::session::{ExemplarSource, Session, SessionBuilder, SketchSource};
+use ridgeline::session::{Exemplars, Session, SessionBuilder, SketchSource};
 use ridgeline::Finished;
 use std::path::{Path, PathBuf};
 
@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 /// no files, unless `setup` says otherwise).
 #[allow(dead_code)]
 pub fn synth(sketch: &Path, exemplars: &Path, setup: impl FnOnce(SessionBuilder) -> SessionBuilder) -> Finished {
-    let b = Session::builder().sketch(SketchSource::File(sketch.to_path_buf())).exemplars(ExemplarSource::library(exemplars));
+    let b = Session::builder().sketch(SketchSource::File(sketch.to_path_buf())).exemplars(Exemplars::library(exemplars));
     setup(b).build().and_then(|s| s.run()).expect("synthesis")
 }
 

@@ -26,11 +26,13 @@ use common::{median, runs, shared_data};
 use ridgeline::stages::sketch::analyse;
 use ridgeline::stages::user_patches::user_patches;
 use ridgeline_terrain::costs::noise_variances;
+use ridgeline_terrain::exemplar_source::{DemFile, ExemplarSource};
 use ridgeline_terrain::library::{common_cell_size, scan_library};
 use ridgeline_terrain::patch_geometry::{FEATURELESS_VARIANTS, FEATURE_VARIANTS};
-use ridgeline_terrain::shard::{FillQuery, ShardScorer};
+use ridgeline_terrain::shard::{FillQuery, ShardScorer, OUTPUT_LEVEL};
 use ridgeline_worker::gpu::GpuContext;
 use ridgeline_worker::{FeatureCache, GpuMode, InProcessShard, ShardConfig};
+use std::sync::Arc;
 use std::time::Instant;
 
 const PATCH: usize = 64;
@@ -44,10 +46,11 @@ fn main() {
     let specs = scan_library(&data.join("dems")).expect("library");
     let cell = common_cell_size(&specs);
     let cache = std::env::temp_dir().join("ridgeline-kernels-bench-cache");
-    let cfg = ShardConfig { patch: PATCH, out_cell: cell, max_side: 16384, cache: Some(FeatureCache::new(&cache)), gpu: None };
-    let items: Vec<_> = specs.into_iter().enumerate().map(|(i, s)| (i as u32, s)).collect();
+    let cfg = ShardConfig::single(PATCH, cell, 16384, Some(FeatureCache::new(&cache)));
+    let items: Vec<(u32, Arc<dyn ExemplarSource>)> =
+        specs.into_iter().enumerate().map(|(i, s)| (i as u32, Arc::new(DemFile::new(s)) as Arc<dyn ExemplarSource>)).collect();
     let shard = InProcessShard::load(&items, &cfg);
-    let sources = shard.source_data();
+    let sources = shard.source_data(OUTPUT_LEVEL);
     let sketch = ridgeline_terrain::io::read_sketch(&data.join(format!("sketches/{sketch_name}.png")), 16384).expect("sketch");
     let ups = user_patches(&analyse(&sketch, PATCH), PATCH);
     let queries: Vec<_> = ups.iter().map(|u| u.query.clone()).collect();
@@ -118,8 +121,8 @@ fn bench(
     n_runs: usize,
     bandwidth: (f64, &str),
 ) {
-    let sources = shard.source_data();
-    let info = shard.backend().info();
+    let sources = shard.source_data(OUTPUT_LEVEL);
+    let info = shard.backend(OUTPUT_LEVEL).info();
     let passes = if info.backend == "gpu" { 2.0 } else { 1.0 };
     println!("{} backend: {}", info.backend, info.adapter);
     println!("  memory bandwidth {:.1} GB/s ({})", bandwidth.0 / 1e9, bandwidth.1);
@@ -136,7 +139,7 @@ fn bench(
     for _ in 0..n_runs {
         let t = Instant::now();
         for block in queries.chunks(BLOCK) {
-            shard.score_block(block, K).expect("round 1");
+            shard.score_block(OUTPUT_LEVEL, block, K).expect("round 1");
         }
         times.push(t.elapsed().as_secs_f64());
     }
@@ -156,7 +159,7 @@ fn bench(
     for _ in 0..n_runs {
         let t = Instant::now();
         for batch in targets.chunks(32) {
-            shard.score_fill(batch, 0, K).expect("fill scoring");
+            shard.score_fill(OUTPUT_LEVEL, batch, 0, K).expect("fill scoring");
         }
         times.push(t.elapsed().as_secs_f64());
     }

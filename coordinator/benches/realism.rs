@@ -275,7 +275,7 @@ fn main() {
         "{:<22} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6}",
         "sketch / library", "ridge", "valley", "landf", "slope", "rough", "seam", "(real)", "str64", "repet", "s"
     );
-    let all = evaluation::load_sources(&dems, Some(90.0), None).expect("dems");
+    let all = evaluation::load_library(&dems, Some(90.0), None).expect("dems");
     let crops = centre_crops(&all);
     for (k, (name, sk)) in sketches().into_iter().enumerate() {
         // the first six cycle through the held-out libraries; the ring is on the mixed one
@@ -288,7 +288,7 @@ fn main() {
         let seconds = t.elapsed().as_secs_f64();
         let cell = out.report.cell_size_m;
         let prov = evaluation::provenance_of(&out.output.canvas, &out.report.exemplars);
-        let sources = evaluation::load_sources(lib, cell, Some(&prov)).expect("sources");
+        let sources = evaluation::load_library(lib, cell, Some(&prov)).expect("sources");
         let e = evaluation::evaluate(&Inputs {
             terrain: out.terrain(),
             cell_m: cell.unwrap_or(90.0),

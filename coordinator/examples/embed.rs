@@ -8,7 +8,7 @@
 //! ```
 //! (`--no-default-features`: none of the command line's dependencies are built.)
 
-use ridgeline::session::{ExemplarSource, Pen, Session, SketchSource, Stroke, StrokeSketch};
+use ridgeline::session::{Exemplars, Pen, Session, SketchSource, Stroke, StrokeSketch};
 use ridgeline::{CancelToken, JobProgress, Stage};
 use std::sync::Arc;
 
@@ -43,7 +43,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let cancel = CancelToken::new(); // a UI would call cancel.cancel() from its button
     let finished = Session::builder()
         .sketch(SketchSource::Strokes(sketch))
-        .exemplars(ExemplarSource::InMemory { cell_size_m: Some(90.0), exemplars: vec![("tool-dem".into(), heights)] })
+        .exemplars(Exemplars::in_memory(Some(90.0), vec![("tool-dem".into(), heights)]))
         .patch_size(32)
         .seed(1)
         .progress(Arc::new(Printer))

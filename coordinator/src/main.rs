@@ -185,11 +185,11 @@ fn serve_metrics(addr: Option<std::net::SocketAddr>) -> Result<()> {
 }
 
 fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
-    use ridgeline::session::{ExemplarSource, Session, SketchSource};
+    use ridgeline::session::{Exemplars, Session, SketchSource};
     let backend = backend(worker_urls(&a)?, a.gpu, &a.token, &a.tls_ca, a.call_timeout_s, JOB_ID.get().cloned());
     let mut builder = Session::builder()
         .sketch(SketchSource::File(a.sketch.clone()))
-        .exemplars(ExemplarSource::library(&a.exemplars))
+        .exemplars(Exemplars::library(&a.exemplars))
         .backend(backend)
         .patch_size(a.patch_size)
         .seed(a.seed)
@@ -321,14 +321,14 @@ fn evaluate(a: EvaluateArgs) -> Result<()> {
         Some(p) => Some(evaluation::read_provenance(p, terrain.data.len()).map_err(|e| anyhow::anyhow!(e))?),
         None => None,
     };
-    let specs = ridgeline_terrain::library::scan_library(&a.exemplars)?;
-    let cell = a.cell_size.or_else(|| ridgeline_terrain::library::common_cell_size(&specs));
+    let library = ridgeline::session::Exemplars::library(&a.exemplars).sources()?;
+    let cell = a.cell_size.or_else(|| ridgeline::stages::exemplars::common_cell_size(&library));
     if let Some(c) = a.cell_size {
         if !(c.is_finite() && c > 0.0) {
             bail!("--cell-size {c}: give a positive number of metres");
         }
     }
-    let sources = evaluation::load_sources(&a.exemplars, cell, provenance.as_ref())?;
+    let sources = evaluation::load_sources(&library, cell, provenance.as_ref())?;
     if sources.is_empty() {
         bail!("{}: no exemplar of the library supplied this terrain (is it the job's library?)", a.exemplars.display());
     }

@@ -11,10 +11,10 @@
 //! the command line, the service, the example, the tests and the benches all build one.
 //!
 //! ```no_run
-//! use ridgeline::session::{Session, SketchSource, ExemplarSource};
+//! use ridgeline::session::{Session, SketchSource, Exemplars};
 //! let finished = Session::builder()
 //!     .sketch(SketchSource::File("sketch.png".into()))
-//!     .exemplars(ExemplarSource::library("dems/"))
+//!     .exemplars(Exemplars::library("dems/"))
 //!     .seed(7)
 //!     .terrain_file("terrain.tif")
 //!     .build()?
@@ -30,9 +30,10 @@ use crate::job::stage_runner::StageRunner;
 use crate::job::SynthError;
 use crate::outputs::OutputFiles;
 use crate::progress::{CancelToken, JobProgress, Progress, Stage};
-pub use crate::stages::exemplars::{Backend, ExemplarSource};
+use crate::stages::exemplars::common_cell_size;
+pub use crate::stages::exemplars::{Backend, Exemplars};
+pub use ridgeline_terrain::exemplar_source::{DemFile, ExemplarSource, InMemory};
 use ridgeline_terrain::grid::{Grid, Heightfield};
-use ridgeline_terrain::library::common_cell_size;
 use ridgeline_terrain::TerrainError;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -161,7 +162,7 @@ impl SessionError {
 #[derive(Default)]
 pub struct SessionBuilder {
     sketch: Option<SketchSource>,
-    exemplars: Option<ExemplarSource>,
+    exemplars: Option<Exemplars>,
     backend: Backend,
     size: Option<(usize, usize)>,
     outputs: Option<OutputFiles>,
@@ -177,7 +178,10 @@ pub struct Session {
     sketch: Grid<u8>,
     /// The sketch file, when it came from one (reports and collision checks).
     sketch_path: Option<PathBuf>,
-    exemplars: ExemplarSource,
+    /// The exemplar sources, a library's subset applied…
+    sources: Vec<Arc<dyn ExemplarSource>>,
+    /// …and the library they came from, when they did.
+    library: Option<PathBuf>,
     backend: Backend,
     outputs: Option<OutputFiles>,
     settings: JobSettings,
@@ -214,7 +218,7 @@ impl SessionBuilder {
         self.sketch = Some(s);
         self
     }
-    pub fn exemplars(mut self, e: ExemplarSource) -> Self {
+    pub fn exemplars(mut self, e: Exemplars) -> Self {
         self.exemplars = Some(e);
         self
     }
@@ -308,7 +312,7 @@ impl SessionBuilder {
 
     /// Validates the whole job and reads the sketch; nothing is written.
     pub fn build(self) -> Result<Session, SessionError> {
-        let mut cfg = self.settings;
+        let cfg = self.settings;
         cfg.validate()?;
         let invalid = |m: String| Err(SessionError::Invalid(m));
         if let Some(o) = &self.outputs {
@@ -345,39 +349,25 @@ impl SessionBuilder {
             None => return invalid("no exemplars given".into()),
             Some(e) => e,
         };
-        match &exemplars {
-            ExemplarSource::Library { path, only } => {
-                let specs = ridgeline_terrain::library::scan_library(path)?;
-                if let Some(only) = only {
-                    if only.is_empty() {
-                        return invalid(format!("{}: the subset of exemplars is empty", path.display()));
-                    }
-                    if let Some(missing) = only.iter().find(|n| !specs.iter().any(|s| &s.name() == *n)) {
-                        return invalid(format!("{}: no exemplar named '{missing}' in the library", path.display()));
-                    }
-                }
-            }
-            ExemplarSource::InMemory { cell_size_m, exemplars } => {
-                if exemplars.is_empty() {
-                    return invalid("no exemplar heightfields given".into());
-                }
-                if let Some(c) = cell_size_m {
-                    if !(c.is_finite() && *c > 0.0) {
-                        return invalid(format!("exemplar cell size {c} m: give a positive number of metres"));
-                    }
-                }
-                if cfg.cell_size.is_none() {
-                    cfg.cell_size = *cell_size_m;
+        let library = exemplars.library_path().map(Path::to_path_buf);
+        let sources = exemplars.sources().map_err(|e| match e {
+            // a subset the library cannot give is the job's mistake
+            TerrainError::Invalid { .. } if library.is_some() => SessionError::Invalid(e.to_string()),
+            e => SessionError::File(e),
+        })?;
+        if sources.is_empty() && library.is_none() {
+            return invalid("no exemplar sources given".into());
+        }
+        for s in &sources {
+            if let Some(c) = s.cell_size_m() {
+                if !(c.is_finite() && c > 0.0) {
+                    return invalid(format!("exemplar {}: cell size {c} m: give a positive number of metres", s.name()));
                 }
             }
         }
         match &self.backend {
             #[cfg(feature = "fleet")]
             Backend::Fleet(c) if c.workers.is_empty() => return invalid("a fleet backend with no worker addresses".into()),
-            #[cfg(feature = "fleet")]
-            Backend::Fleet(_) | Backend::Cluster(_) if matches!(exemplars, ExemplarSource::InMemory { .. }) => {
-                return invalid("exemplars in memory run on in-process shards only (a fleet loads them from files)".into());
-            }
             Backend::InProcess { shards: 0, .. } => return invalid("in-process shards: give at least one".into()),
             _ => {}
         }
@@ -387,17 +377,14 @@ impl SessionBuilder {
                 inputs.push(("the sketch", p.as_path()));
             }
             inputs.extend(self.inputs.iter().map(|(n, p)| (n.as_str(), p.as_path())));
-            let library = match &exemplars {
-                ExemplarSource::Library { path, .. } => Some(path.as_path()),
-                ExemplarSource::InMemory { .. } => None,
-            };
-            o.check(sketch.width, sketch.height, &inputs, library)?;
+            o.check(sketch.width, sketch.height, &inputs, library.as_deref())?;
         }
         let progress = self.progress.map(Progress::new).unwrap_or_default();
         Ok(Session {
             sketch,
             sketch_path,
-            exemplars,
+            sources,
+            library,
             backend: self.backend,
             outputs: self.outputs,
             settings: cfg,
@@ -432,12 +419,12 @@ impl Session {
         let set = &self.settings;
         let pool = set.thread_pool()?;
         let sketch_name = self.sketch_path.clone().unwrap_or_else(|| PathBuf::from("the sketch"));
-        let _job = match &self.exemplars {
-            ExemplarSource::Library { path, .. } => {
+        let _job = match &self.library {
+            Some(path) => {
                 tracing::info_span!("synth", sketch = %sketch_name.display(), exemplars = %path.display(), seed = set.seed)
             }
-            ExemplarSource::InMemory { exemplars, .. } => {
-                tracing::info_span!("synth", exemplars = exemplars.len(), seed = set.seed)
+            None => {
+                tracing::info_span!("synth", sketch = %sketch_name.display(), exemplars = self.sources.len(), seed = set.seed)
             }
         }
         .entered();
@@ -446,7 +433,8 @@ impl Session {
         let mut run = StageRunner::new(&pool, &self.progress, &self.cancel);
         let job = JobInputs {
             sketch: self.sketch.clone(),
-            exemplars: &self.exemplars,
+            sources: &self.sources,
+            library: self.library.as_deref(),
             backend: &self.backend,
             fleet: fleet.as_ref(),
             settings: set,
@@ -459,7 +447,7 @@ impl Session {
             None => Vec::new(),
             Some(o) => {
                 let wants_sources = o.report.is_some() || o.debug_dir.is_some();
-                let sources = if wants_sources { Some(sources_of(&self.exemplars, &output, &report)?) } else { None };
+                let sources = if wants_sources { Some(sources_of(&self.sources, &output, &report)?) } else { None };
                 if let (Some(_), Some(sources)) = (&o.report, &sources) {
                     let e = run.run(Stage::Evaluation, |_| Ok(crate::outputs::evaluate(&output, &report, sources)))?;
                     report.evaluation = Some(e);
@@ -477,12 +465,12 @@ impl Session {
     /// A library that cannot be read is left for the exemplars stage to report.
     fn check_memory(&self, sketch: &Path) -> Result<(), SessionError> {
         let (width, height) = (self.sketch.width as u64, self.sketch.height as u64);
-        let in_process = matches!(self.backend, Backend::InProcess { .. });
-        let library_cells: u64 = match self.exemplars.specs() {
-            Some(Ok(specs)) if in_process => {
-                let cell = self.settings.cell_size.or_else(|| common_cell_size(&specs));
-                specs.iter().map(|s| s.cells_at(cell)).sum()
+        let library_cells: u64 = match self.backend {
+            Backend::InProcess { .. } => {
+                let cell = self.settings.cell_size.or_else(|| common_cell_size(&self.sources));
+                self.sources.iter().map(|s| s.cells_at(cell)).sum()
             }
+            #[allow(unreachable_patterns)]
             _ => 0,
         };
         let est = crate::job::memory_budget::check(sketch, width, height, library_cells, self.settings.max_memory)
@@ -492,18 +480,14 @@ impl Session {
     }
 }
 
-/// The exemplars that supplied the output, at its cell size.
+/// The sources that supplied the output, at its cell size, by name.
 fn sources_of(
-    exemplars: &ExemplarSource,
+    sources: &[Arc<dyn ExemplarSource>],
     out: &SynthOutput,
     report: &SynthReport,
 ) -> Result<Vec<(String, Heightfield)>, SessionError> {
     let provenance = crate::evaluation::provenance_of(&out.canvas, &report.exemplars);
-    let used = |n: &str| provenance.placements.iter().any(|p| p.exemplar == n);
-    Ok(match exemplars {
-        ExemplarSource::Library { path, .. } => crate::evaluation::load_sources(path, report.cell_size_m, Some(&provenance))?,
-        ExemplarSource::InMemory { exemplars, .. } => exemplars.iter().filter(|(n, _)| used(n)).cloned().collect(),
-    })
+    Ok(crate::evaluation::load_sources(sources, report.cell_size_m, Some(&provenance))?)
 }
 
 #[cfg(test)]
@@ -553,12 +537,12 @@ mod tests {
         assert!(e.contains("no exemplars"), "{e}");
         let e = Session::builder()
             .sketch(SketchSource::Image(Grid::new(64, 64, 128)))
-            .exemplars(ExemplarSource::InMemory { cell_size_m: None, exemplars: vec![] })
+            .exemplars(Exemplars::in_memory(None, vec![]))
             .build()
             .err()
             .map(|e| e.to_string())
             .unwrap_or_default();
-        assert!(e.contains("no exemplar heightfields"), "{e}");
+        assert!(e.contains("no exemplar sources"), "{e}");
     }
 
     #[test]

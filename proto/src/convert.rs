@@ -7,7 +7,8 @@ use ridgeline_terrain::costs::NOISE_LEVELS;
 use ridgeline_terrain::feature_kind::{FeatureKind, PerKind};
 use ridgeline_terrain::patch_geometry::{ProfilePath, Variant};
 use ridgeline_terrain::shard::{
-    BestSet, CandidateRef, FillBestSet, FillCandidate, FillQuery, ScoredCandidate, SkippedExemplar, SourceInfo, UserPatchQuery,
+    BestSet, CandidateRef, FillBestSet, FillCandidate, FillQuery, LevelSpec, ScoredCandidate, SkippedExemplar, SourceInfo,
+    UserPatchQuery, MAX_LEVELS,
 };
 
 fn pairs(v: &[f32]) -> Result<Vec<[f32; 2]>, String> {
@@ -208,6 +209,24 @@ pub fn source_from_wire(s: v1::SourceInfo) -> Result<SourceInfo, String> {
     })
 }
 
+pub fn level_to_wire(l: &LevelSpec) -> v1::Level {
+    v1::Level { patch: l.patch as u32, out_cell: l.out_cell }
+}
+
+pub fn level_from_wire(l: &v1::Level) -> Result<LevelSpec, String> {
+    let spec = LevelSpec { patch: l.patch as usize, out_cell: l.out_cell };
+    spec.check()?;
+    Ok(spec)
+}
+
+/// The levels of a shard request: at least one, at most [`MAX_LEVELS`], each valid.
+pub fn levels_from_wire(levels: &[v1::Level]) -> Result<Vec<LevelSpec>, String> {
+    if levels.is_empty() || levels.len() > MAX_LEVELS {
+        return Err(format!("{} levels: a shard has 1 to {MAX_LEVELS}", levels.len()));
+    }
+    levels.iter().enumerate().map(|(i, l)| level_from_wire(l).map_err(|e| format!("level {i}: {e}"))).collect()
+}
+
 pub fn skipped_to_wire(s: &SkippedExemplar) -> v1::Skipped {
     v1::Skipped { name: s.name.clone(), reason: s.reason.clone() }
 }
@@ -261,6 +280,13 @@ mod tests {
         let mut w = source_to_wire(&s);
         w.feature_nodes.pop();
         assert!(source_from_wire(w).is_err(), "a count missing for a kind");
+        let levels = [LevelSpec { patch: 64, out_cell: Some(90.0) }, LevelSpec { patch: 32, out_cell: Some(360.0) }];
+        let wire: Vec<v1::Level> = levels.iter().map(level_to_wire).collect();
+        assert_eq!(levels_from_wire(&wire).unwrap(), levels.to_vec());
+        assert!(levels_from_wire(&[]).is_err(), "no level");
+        assert!(levels_from_wire(&[wire[0]; MAX_LEVELS + 1]).is_err(), "too many levels");
+        assert!(levels_from_wire(&[v1::Level { patch: 7, out_cell: None }]).is_err(), "odd patch");
+        assert!(levels_from_wire(&[v1::Level { patch: 64, out_cell: Some(-1.0) }]).is_err(), "negative cell");
         let t = FillQuery {
             id: 4,
             samples: vec![(0, 1.5), (63, -2.0)],

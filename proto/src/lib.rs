@@ -10,7 +10,8 @@ pub mod v1 {
 /// worker of another version, saying both. 2 added `ScoreFill` and removed
 /// `FeaturelessPool` (hole-fill scoring runs where the pool lives); 3 made feature
 /// kinds an enum with per-kind lists (no more `valley` flag and ridge/valley count
-/// pairs).
+/// pairs), prepares shards at levels (every score call names one) and carries
+/// exemplars of three kinds: stored DEM files, stored samples and generator recipes.
 pub const PROTOCOL_VERSION: u32 = 3;
 
 /// Layout version of the `FillRequest` / `FillReply` messages.

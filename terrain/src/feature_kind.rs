@@ -84,9 +84,15 @@ impl std::fmt::Display for FeatureKind {
 }
 
 /// One `T` per feature kind, indexed by kind (`v[FeatureKind::Ridge]`); serialised as
-/// a map from the kinds' names (`{"ridge": …, "valley": …}`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+/// a map from the kinds' names (`{"ridge": …, "valley": …}`), and shown as one in logs.
+#[derive(Clone, Copy, PartialEq, Eq, Default, Hash)]
 pub struct PerKind<T>(pub [T; FeatureKind::COUNT]);
+
+impl<T: std::fmt::Debug> std::fmt::Debug for PerKind<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_map().entries(self.iter().map(|(k, v)| (k.name(), v))).finish()
+    }
+}
 
 impl<T> PerKind<T> {
     /// `f(kind)` for every kind.
@@ -180,5 +186,6 @@ mod tests {
         assert_eq!(serde_json::from_str::<PerKind<usize>>(&json).unwrap(), v);
         assert!(serde_json::from_str::<PerKind<usize>>(r#"{"ridge":1}"#).is_err(), "every kind needs a value");
         assert!(serde_json::from_str::<PerKind<usize>>(r#"{"ridge":1,"valley":2,"cliff":3}"#).is_err());
+        assert_eq!(format!("{v:?}"), r#"{"ridge": 0, "valley": 11}"#);
     }
 }

@@ -1,13 +1,17 @@
 //! ridgeline-terrain: what coordinator and workers share — the heightfield type,
-//! file I/O, the exemplar library, PPA feature extraction, patch geometry, cost
-//! functions and the shard trait that separates the coordinator from its workers.
+//! file I/O, the exemplar library and the exemplar sources behind one trait (files,
+//! heights in memory, generators), PPA feature extraction and the feature kinds,
+//! patch geometry, cost functions and the shard trait that separates the coordinator
+//! from its workers.
 
 pub mod costs;
 pub mod dem_formats;
 pub mod dem_repair;
 pub mod error;
+pub mod exemplar_source;
 pub mod feature_extraction;
 pub mod feature_kind;
+pub mod generators;
 pub mod grid;
 pub mod io;
 pub mod library;
@@ -17,6 +21,7 @@ pub mod shard;
 pub mod staging;
 
 pub use error::{Result, TerrainError};
+pub use exemplar_source::ExemplarSource;
 pub use feature_extraction::{FeatureGraph, PpaParams};
 pub use feature_kind::{FeatureKind, PerKind};
 pub use grid::{Grid, Heightfield};

@@ -190,23 +190,24 @@ pub fn load_exemplar(spec: &ExemplarSpec, out_cell: Option<f32>, max_side: u32) 
     if spikes > 0 {
         tracing::info!(file = %spec.path.display(), cells = spikes, "isolated spikes in the DEM repaired");
     }
-    if let (Some(src), Some(dst)) = (spec.cell_size_m.or(raw.cell_size_m), out_cell) {
-        let f = src / dst;
-        if (f - 1.0).abs() > 1e-3 {
-            let nw = ((h.width as f32 * f).round() as usize).max(1);
-            let nh = ((h.height as f32 * f).round() as usize).max(1);
-            if nw > max_side as usize || nh > max_side as usize {
-                return Err(TerrainError::TooLarge {
-                    path: spec.path.clone(),
-                    width: nw as u32,
-                    height: nh as u32,
-                    limit: max_side,
-                });
-            }
-            h = h.resample(nw, nh);
-        }
+    resample_to_cell(h, spec.cell_size_m.or(raw.cell_size_m), out_cell, max_side, &spec.path)
+}
+
+/// Heights at cell size `from` resampled (Catmull-Rom) to cell size `to`, unless
+/// either is unknown or they agree; refused, naming `what`, when that would make a
+/// side longer than `max_side`.
+pub fn resample_to_cell(h: Heightfield, from: Option<f32>, to: Option<f32>, max_side: u32, what: &Path) -> Result<Heightfield> {
+    let (Some(src), Some(dst)) = (from, to) else { return Ok(h) };
+    let f = src / dst;
+    if (f - 1.0).abs() <= 1e-3 {
+        return Ok(h);
     }
-    Ok(h)
+    let nw = ((h.width as f32 * f).round() as usize).max(1);
+    let nh = ((h.height as f32 * f).round() as usize).max(1);
+    if nw > max_side as usize || nh > max_side as usize {
+        return Err(TerrainError::TooLarge { path: what.to_path_buf(), width: nw as u32, height: nh as u32, limit: max_side });
+    }
+    Ok(h.resample(nw, nh))
 }
 
 #[cfg(test)]

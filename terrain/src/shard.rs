@@ -1,6 +1,11 @@
 //! The seam between coordinator and workers: the coordinator reaches exemplar shards
 //! only through [`ShardScorer`] (design.md, Cluster). The in-process implementation is
 //! `ridgeline_worker::InProcessShard`; a gRPC client implements the same trait.
+//!
+//! A shard is prepared at one or more [`LevelSpec`]s — levels of a synthesis pyramid,
+//! each an output cell size and a patch side (texture synthesis by levels: Lefebvre
+//! and Hoppe 2005; design.md, Large-scale form) — and every call names the level it
+//! scores at. Level [`OUTPUT_LEVEL`] is the output's own resolution.
 
 use crate::feature_kind::{FeatureKind, PerKind};
 use crate::patch_geometry::{ProfilePath, Variant};
@@ -144,10 +149,41 @@ pub enum ShardError {
     Cancelled,
 }
 
+/// One level a shard is prepared at: exemplars resampled to `out_cell` metres per cell
+/// (`None`: their own), matched in patches of `patch` cells.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct LevelSpec {
+    pub patch: usize,
+    pub out_cell: Option<f32>,
+}
+
+/// The level at the output's own cell size: the first a shard is prepared at.
+pub const OUTPUT_LEVEL: usize = 0;
+
+/// Most levels a shard is prepared at.
+pub const MAX_LEVELS: usize = 8;
+
+impl LevelSpec {
+    /// Refuses a level no shard can be prepared at.
+    pub fn check(&self) -> Result<(), String> {
+        if self.patch < 8 || self.patch > 512 || !self.patch.is_multiple_of(2) {
+            return Err(format!("patch size {} must be even and within 8..=512", self.patch));
+        }
+        if let Some(c) = self.out_cell {
+            if !(c.is_finite() && c > 0.0) {
+                return Err(format!("cell size {c}: must be a positive number of metres"));
+            }
+        }
+        Ok(())
+    }
+}
+
 /// Scores user patches against one shard of the exemplar library.
 pub trait ShardScorer: Send + Sync {
-    /// The sources this shard holds.
-    fn sources(&self) -> Vec<SourceInfo>;
+    /// The levels the shard was prepared at (a call's `level` indexes them).
+    fn levels(&self) -> Vec<LevelSpec>;
+    /// The sources this shard holds at `level` (none for a level it does not have).
+    fn sources(&self, level: usize) -> Vec<SourceInfo>;
     /// The exemplars of its share of the library it had to skip.
     fn skipped(&self) -> Vec<SkippedExemplar> {
         Vec::new()
@@ -161,12 +197,13 @@ pub trait ShardScorer: Send + Sync {
     fn times(&self) -> ShardTimes {
         ShardTimes::default()
     }
-    /// Round 1 for a block of user patches: for every user patch and every source of
-    /// the shard, the `k` best candidates in the total order.
-    fn score_block(&self, block: &[UserPatchQuery], k: usize) -> Result<Vec<BestSet>, ShardError>;
-    /// Hole-fill scoring for a batch of targets: for every target, the `k` best of the
-    /// shard's featureless candidates in their 6 variants, in the total order.
-    fn score_fill(&self, targets: &[FillQuery], seed: u64, k: usize) -> Result<Vec<FillBestSet>, ShardError>;
+    /// Round 1 for a block of user patches at `level`: for every user patch and every
+    /// source of the shard, the `k` best candidates in the total order.
+    fn score_block(&self, level: usize, block: &[UserPatchQuery], k: usize) -> Result<Vec<BestSet>, ShardError>;
+    /// Hole-fill scoring for a batch of targets at `level`: for every target, the `k`
+    /// best of the shard's featureless candidates in their 6 variants, in the total
+    /// order.
+    fn score_fill(&self, level: usize, targets: &[FillQuery], seed: u64, k: usize) -> Result<Vec<FillBestSet>, ShardError>;
 }
 
 /// What a shard has answered and how long it took (wall seconds of the calls as the

@@ -4,22 +4,31 @@
 
 use crate::candidates::{feature_nodes, featureless_patches, valid_centres, FeatureNode, FeaturelessPatch};
 use crate::feature_cache::FeatureCache;
+use ridgeline_terrain::exemplar_source::ExemplarSource;
 use ridgeline_terrain::feature_extraction::{extract_features, FeatureGraph, FeatureKind, PerKind, PpaParams};
 use ridgeline_terrain::grid::{box_blur, Heightfield};
-use ridgeline_terrain::library::{load_exemplar, ExemplarSpec};
 use ridgeline_terrain::patch_geometry::patch_reach;
+use ridgeline_terrain::shard::LevelSpec;
 use ridgeline_terrain::TerrainError;
 
 /// How a shard prepares its exemplars.
 #[derive(Debug, Clone)]
 pub struct ShardConfig {
-    pub patch: usize,
-    /// Output cell size in metres; exemplars of other cell sizes are resampled to it.
-    pub out_cell: Option<f32>,
+    /// The levels every exemplar is prepared at (at least one; the first is the
+    /// output's): patch side and output cell size, to which exemplars of other cell
+    /// sizes are resampled.
+    pub levels: Vec<LevelSpec>,
     pub max_side: u32,
     pub cache: Option<FeatureCache>,
     /// The device to keep the shard resident on and score with; `None`: the CPU.
     pub gpu: Option<crate::Device>,
+}
+
+impl ShardConfig {
+    /// One level: patches of `patch` cells at output cell size `out_cell`.
+    pub fn single(patch: usize, out_cell: Option<f32>, max_side: u32, cache: Option<FeatureCache>) -> Self {
+        ShardConfig { levels: vec![LevelSpec { patch, out_cell }], max_side, cache, gpu: None }
+    }
 }
 
 /// One loaded exemplar.
@@ -41,10 +50,12 @@ pub struct Source {
 pub enum LoadError {
     #[error(transparent)]
     Terrain(#[from] TerrainError),
-    #[error("{path}: {width} x {height} cells at the output cell size is too small for a {patch}-cell patch in every orientation", path = .path.display())]
-    TooSmall { path: std::path::PathBuf, width: usize, height: usize, patch: usize },
-    #[error("{path}: no patch free of voids", path = .path.display())]
-    Unusable { path: std::path::PathBuf },
+    #[error(
+        "{what}: {width} x {height} cells at the output cell size is too small for a {patch}-cell patch in every orientation"
+    )]
+    TooSmall { what: String, width: usize, height: usize, patch: usize },
+    #[error("{what}: no patch free of voids")]
+    Unusable { what: String },
 }
 
 /// Robust relief of a heightfield: 98th minus 2nd percentile of a sample of cells.
@@ -74,54 +85,39 @@ pub fn exemplar_features(h: &Heightfield, p: &PpaParams) -> PerKind<FeatureGraph
     PerKind::from_fn(|_| graphs.remove(0))
 }
 
-/// Loads one exemplar. An exemplar that cannot be used — unreadable, corrupt,
-/// smaller than a patch in every orientation, or all voids — is an `Err` with the
-/// reason; the shard skips it with a warning and reports it (a library of thousands of
-/// DEMs should not fail overnight on one bad file; the job fails only if none is left).
-pub fn load_source(id: u32, spec: &ExemplarSpec, cfg: &ShardConfig) -> Result<Source, LoadError> {
-    let _span = tracing::info_span!("load_exemplar", file = %spec.name()).entered();
-    let heights = load_exemplar(spec, cfg.out_cell, cfg.max_side)?;
-    // the cache key covers the file's bytes and everything that shaped the heights
-    let content =
-        || std::fs::read(&spec.path).map_err(|source| TerrainError::Read { path: spec.path.clone(), cause: source.into() });
-    let extra = (spec.to_metres, spec.cell_size_m, cfg.out_cell);
-    prepare_source(id, spec.name(), &spec.path, heights, cfg, |params, w, h| {
-        Ok(FeatureCache::key(&content()?, &(params, extra.0, extra.1, extra.2, w, h)))
+/// Loads one exemplar at one level. An exemplar that cannot be used — unreadable,
+/// corrupt, smaller than a patch in every orientation, or all voids — is an `Err`
+/// with the reason; the shard skips it with a warning and reports it (a library of
+/// thousands of DEMs should not fail overnight on one bad file; the job fails only if
+/// none is left).
+pub fn load_source(id: u32, src: &dyn ExemplarSource, level: &LevelSpec, cfg: &ShardConfig) -> Result<Source, LoadError> {
+    let _span = tracing::info_span!("load_exemplar", exemplar = %src.name(), cell = ?level.out_cell).entered();
+    let heights = src.heights(level.out_cell, cfg.max_side)?;
+    // the cache key covers the source's identity (its bytes and everything that shaped
+    // the heights), computed only when there is a cache
+    prepare_source(id, src, heights, level.patch, cfg.cache.as_ref(), |params, w, h| {
+        Ok(FeatureCache::key(src.identity(level.out_cell)?.as_bytes(), &(params, w, h)))
     })
-}
-
-/// Prepares an exemplar handed over as heights (metres, at the output cell size) by
-/// an embedding tool: the same checks and candidates as a file, cached by content.
-pub fn source_from_heights(id: u32, name: &str, heights: Heightfield, cfg: &ShardConfig) -> Result<Source, LoadError> {
-    let _span = tracing::info_span!("load_exemplar", name).entered();
-    let bytes: Vec<u8> = heights.data.iter().flat_map(|v| v.to_le_bytes()).collect();
-    let path = std::path::PathBuf::from(name);
-    prepare_source(id, name.to_string(), &path, heights, cfg, |params, w, h| Ok(FeatureCache::key(&bytes, &(params, w, h))))
 }
 
 /// Candidates of one exemplar's heights; `cache_key` names its feature graphs in the
 /// cache (called only when there is one).
 fn prepare_source(
     id: u32,
-    name: String,
-    path: &std::path::Path,
+    src: &dyn ExemplarSource,
     heights: Heightfield,
-    cfg: &ShardConfig,
+    patch: usize,
+    cache: Option<&FeatureCache>,
     cache_key: impl FnOnce(&PpaParams, usize, usize) -> Result<String, LoadError>,
 ) -> Result<Source, LoadError> {
-    let reach = patch_reach(cfg.patch);
+    let reach = patch_reach(patch);
     if heights.width <= 2 * reach || heights.height <= 2 * reach {
-        return Err(LoadError::TooSmall {
-            path: path.to_path_buf(),
-            width: heights.width,
-            height: heights.height,
-            patch: cfg.patch,
-        });
+        return Err(LoadError::TooSmall { what: src.location(), width: heights.width, height: heights.height, patch });
     }
     let rel = relief(&heights);
     let params = exemplar_ppa_params(rel);
     let mut cache_hit = false;
-    let graphs = match &cfg.cache {
+    let graphs = match cache {
         Some(cache) => {
             let key = cache_key(&params, heights.width, heights.height)?;
             match cache.get(&key, heights.width, heights.height) {
@@ -138,14 +134,14 @@ fn prepare_source(
         }
         None => exemplar_features(&heights, &params),
     };
-    let spacing = (cfg.patch * 5 / 32).max(2);
+    let spacing = (patch * 5 / 32).max(2);
     let valid = valid_centres(&heights, reach);
-    let nodes = graphs.map(|_, g| feature_nodes(g, &valid, cfg.patch, spacing));
-    let featureless = featureless_patches(&heights, &graphs, cfg.patch);
+    let nodes = graphs.map(|_, g| feature_nodes(g, &valid, patch, spacing));
+    let featureless = featureless_patches(&heights, &graphs, patch);
     let counts = nodes.map(|_, n| n.len());
     tracing::debug!(feature_nodes = ?counts, featureless = featureless.len(), cache_hit, "exemplar ready");
     if counts.total() == 0 && featureless.is_empty() {
-        return Err(LoadError::Unusable { path: path.to_path_buf() });
+        return Err(LoadError::Unusable { what: src.location() });
     }
-    Ok(Source { id, name, heights, nodes, featureless, min_range: (0.02 * rel).max(1.0), cache_hit })
+    Ok(Source { id, name: src.name(), heights, nodes, featureless, min_range: (0.02 * rel).max(1.0), cache_hit })
 }

@@ -17,10 +17,11 @@ use ridgeline_proto::v1;
 use ridgeline_proto::v1::worker_server::{Worker, WorkerServer};
 use ridgeline_proto::JOB_ID_HEADER;
 use ridgeline_proto::{MAX_MESSAGE_BYTES, PROTOCOL_VERSION};
+use ridgeline_terrain::exemplar_source::{samples_from_file, DemFile, ExemplarSource};
+use ridgeline_terrain::generators::{from_recipe, Recipe};
 use ridgeline_terrain::library::ExemplarSpec;
 use ridgeline_terrain::shard::{ShardError, ShardScorer};
 use sha2::{Digest, Sha256};
-use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
@@ -63,6 +64,15 @@ struct Loaded {
 
 type ShardTable = Arc<Mutex<Vec<(String, Loaded)>>>;
 
+/// The patch side of `shard` at `level`; `invalid_argument` for a level it lacks.
+fn level_patch(shard: &InProcessShard, level: usize) -> Result<usize, Status> {
+    let levels = shard.levels();
+    levels
+        .get(level)
+        .map(|l| l.patch)
+        .ok_or_else(|| Status::invalid_argument(format!("level {level}: the shard has {} level(s)", levels.len())))
+}
+
 fn find_shard(shards: &ShardTable, key: &str) -> Result<Arc<InProcessShard>, Status> {
     let shards = shards.lock().map_err(|_| Status::internal("shard table poisoned"))?;
     shards
@@ -97,6 +107,55 @@ impl WorkerService {
     fn exemplar_path(&self, hash: &str) -> Option<PathBuf> {
         EXTENSIONS.iter().map(|e| self.cfg.data_dir.join("exemplars").join(format!("{hash}.{e}"))).find(|p| p.is_file())
     }
+
+    /// Where a stored exemplar's bytes are (`None` for a generator, which has none);
+    /// an error if they were never uploaded.
+    fn stored_path(&self, e: &v1::ExemplarRef) -> Result<Option<PathBuf>, Status> {
+        if e.kind() == v1::ExemplarKind::Generator {
+            return Ok(None);
+        }
+        if !is_content_hash(&e.content_hash) {
+            return Err(Status::invalid_argument("bad content hash"));
+        }
+        let path = self
+            .exemplar_path(&e.content_hash)
+            .ok_or_else(|| Status::failed_precondition(format!("exemplar {} ({}) not uploaded", e.name, e.content_hash)))?;
+        Ok(Some(path))
+    }
+}
+
+/// A shard's sources at each of its levels and what it skipped, for the coordinator.
+fn load_reply(shard: &InProcessShard) -> v1::LoadShardReply {
+    v1::LoadShardReply {
+        skipped: shard.skipped().iter().map(skipped_to_wire).collect(),
+        levels: (0..shard.levels().len())
+            .map(|l| v1::LevelSources { sources: shard.sources(l).iter().map(source_to_wire).collect() })
+            .collect(),
+    }
+}
+
+/// The source an exemplar reference names, from its stored bytes at `path` (stored
+/// kinds) or its recipe (generators).
+fn exemplar_from_wire(e: &v1::ExemplarRef, path: Option<&Path>, max_side: u32) -> Result<Arc<dyn ExemplarSource>, Status> {
+    let bad = |m: String| Status::invalid_argument(format!("exemplar {} ({}): {m}", e.source, e.name));
+    Ok(match (e.kind(), path) {
+        (v1::ExemplarKind::DemFile, Some(path)) => {
+            if !(e.to_metres.is_finite() && e.to_metres > 0.0) {
+                return Err(bad("to_metres must be positive".into()));
+            }
+            let spec =
+                ExemplarSpec { path: path.to_path_buf(), cell_size_m: e.cell_size_m, to_metres: e.to_metres, nodata: e.nodata };
+            Arc::new(DemFile { spec, name: Some(e.name.clone()) })
+        }
+        (v1::ExemplarKind::Samples, Some(path)) => {
+            Arc::new(samples_from_file(&e.name, path, e.cell_size_m, max_side).map_err(|err| bad(err.to_string()))?)
+        }
+        (v1::ExemplarKind::Generator, _) => {
+            let recipe: Recipe = serde_json::from_str(&e.recipe_json).map_err(|err| bad(format!("recipe: {err}")))?;
+            from_recipe(&recipe).map_err(|err| bad(err.to_string()))?
+        }
+        _ => return Err(bad("stored exemplar without its bytes".into())),
+    })
 }
 
 fn shard_status(e: ShardError) -> Status {
@@ -249,63 +308,46 @@ impl Worker for WorkerService {
         let span = call_span(&r, "load_shard");
         observed("load_shard", span, async move {
             let r = r.into_inner();
-            if r.patch < 8 || r.patch > 512 || !r.patch.is_multiple_of(2) {
-                return Err(Status::invalid_argument(format!("patch size {} must be even and within 8..=512", r.patch)));
-            }
+            let levels = levels_from_wire(&r.levels).map_err(Status::invalid_argument)?;
             if r.shard_key.is_empty() || r.shard_key.len() > 256 || r.exemplars.len() > 100_000 {
                 return Err(Status::invalid_argument("bad shard key or exemplar count"));
-            }
-            if let Some(c) = r.out_cell {
-                if !(c.is_finite() && c > 0.0) {
-                    return Err(Status::invalid_argument("out_cell must be positive"));
-                }
             }
             let digest: Vec<u8> = Sha256::digest(format!("{r:?}").as_bytes()).to_vec();
             {
                 let shards = self.shards.lock().map_err(|_| Status::internal("poisoned"))?;
                 if let Some((_, l)) = shards.iter().find(|(k, l)| *k == r.shard_key && l.digest == digest) {
-                    return Ok(Response::new(v1::LoadShardReply {
-                        sources: l.shard.sources().iter().map(source_to_wire).collect(),
-                        skipped: l.shard.skipped().iter().map(skipped_to_wire).collect(),
-                    }));
+                    return Ok(Response::new(load_reply(&l.shard)));
                 }
             }
-            let mut items = Vec::new();
+            // check every reference before any work; stored kinds must be here already
+            let mut refs = Vec::with_capacity(r.exemplars.len());
             for e in &r.exemplars {
-                if !is_content_hash(&e.content_hash) {
-                    return Err(Status::invalid_argument("bad content hash"));
-                }
-                let path = self.exemplar_path(&e.content_hash).ok_or_else(|| {
-                    Status::failed_precondition(format!("exemplar {} ({}) not uploaded", e.name, e.content_hash))
-                })?;
-                if !(e.to_metres.is_finite() && e.to_metres > 0.0) {
-                    return Err(Status::invalid_argument("to_metres must be positive"));
-                }
-                items.push((
-                    e.source,
-                    ExemplarSpec { path, cell_size_m: e.cell_size_m, to_metres: e.to_metres, nodata: e.nodata },
-                ));
+                refs.push((e.clone(), self.stored_path(e)?));
             }
             let cfg = ShardConfig {
-                patch: r.patch as usize,
-                out_cell: r.out_cell,
+                levels,
                 max_side: ridgeline_terrain::io::DEFAULT_MAX_SIDE,
                 cache: Some(FeatureCache::new(self.cfg.data_dir.join("features"))),
                 gpu: self.cfg.gpu.clone(),
             };
             let pool = self.pool.clone();
-            let names: BTreeMap<String, String> = r.exemplars.iter().map(|e| (e.content_hash.clone(), e.name.clone())).collect();
             let span = tracing::Span::current();
-            let shard =
-                tokio::task::spawn_blocking(move || pool.install(|| span.in_scope(|| InProcessShard::load(&items, &cfg))))
-                    .await
-                    .map_err(|e| Status::internal(e.to_string()))?;
-            let shard = Arc::new(shard.with_names(&names));
-            let reply = v1::LoadShardReply {
-                sources: shard.sources().iter().map(source_to_wire).collect(),
-                skipped: shard.skipped().iter().map(skipped_to_wire).collect(),
-            };
-            tracing::info!(shard = %r.shard_key, sources = reply.sources.len(), "shard loaded");
+            let shard = tokio::task::spawn_blocking(move || {
+                pool.install(|| {
+                    span.in_scope(|| {
+                        let items = refs
+                            .into_iter()
+                            .map(|(e, path)| Ok((e.source, exemplar_from_wire(&e, path.as_deref(), cfg.max_side)?)))
+                            .collect::<Result<Vec<_>, Status>>()?;
+                        Ok::<_, Status>(InProcessShard::load(&items, &cfg))
+                    })
+                })
+            })
+            .await
+            .map_err(|e| Status::internal(e.to_string()))??;
+            let shard = Arc::new(shard);
+            let reply = load_reply(&shard);
+            tracing::info!(shard = %r.shard_key, sources = reply.levels.first().map_or(0, |l| l.sources.len()), levels = reply.levels.len(), "shard loaded");
             let mut shards = self.shards.lock().map_err(|_| Status::internal("poisoned"))?;
             shards.retain(|(k, _)| *k != r.shard_key);
             shards.push((r.shard_key, Loaded { digest, shard }));
@@ -364,7 +406,8 @@ impl Worker for WorkerService {
             if msg.k == 0 || msg.k > 64 || msg.targets.len() > 4096 {
                 return Err(Status::invalid_argument("k must be within 1..=64 and a batch at most 4096 fill targets"));
             }
-            let patch = shard.patch();
+            let level = msg.level as usize;
+            let patch = level_patch(&shard, level)?;
             let targets = msg
                 .targets
                 .into_iter()
@@ -373,11 +416,12 @@ impl Worker for WorkerService {
                 .map_err(Status::invalid_argument)?;
             let (pool, k, seed, n) = (self.pool.clone(), msg.k as usize, msg.seed, targets.len());
             let span = tracing::Span::current();
-            let sets =
-                tokio::task::spawn_blocking(move || pool.install(|| span.in_scope(|| shard.score_fill(&targets, seed, k))))
-                    .await
-                    .map_err(|e| Status::internal(e.to_string()))?
-                    .map_err(shard_status)?;
+            let sets = tokio::task::spawn_blocking(move || {
+                pool.install(|| span.in_scope(|| shard.score_fill(level, &targets, seed, k)))
+            })
+            .await
+            .map_err(|e| Status::internal(e.to_string()))?
+            .map_err(shard_status)?;
             tracing::debug!(targets = n, "fill batch answered");
             let reply = v1::FillReply {
                 fill_version: ridgeline_proto::FILL_VERSION,
@@ -418,9 +462,11 @@ impl ScoreCtx {
         }
         let queries =
             msg.queries.into_iter().map(query_from_wire).collect::<Result<Vec<_>, _>>().map_err(Status::invalid_argument)?;
+        let level = msg.level as usize;
+        level_patch(&shard, level)?;
         let (pool, k, index, n_queries) = (self.pool.clone(), msg.k as usize, msg.block_index, queries.len() as u64);
         let span = tracing::Span::current();
-        let sets = tokio::task::spawn_blocking(move || pool.install(|| span.in_scope(|| shard.score_block(&queries, k))))
+        let sets = tokio::task::spawn_blocking(move || pool.install(|| span.in_scope(|| shard.score_block(level, &queries, k))))
             .await
             .map_err(|e| Status::internal(e.to_string()))?
             .map_err(shard_status)?;

@@ -311,7 +311,7 @@ pub fn ranked_best_set(src: &Source, q: &UserPatchQuery, k: usize) -> BestSet {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::candidates::FeatureNode;
     use ridgeline_terrain::feature_extraction::PerKind;

@@ -5,35 +5,51 @@
 //! the same time.
 
 use super::connection::Cluster;
+use super::remote_shard::Upload;
 use super::remote_shard::{RemoteExemplar, RemoteShard};
 use ridgeline_proto::v1;
-use ridgeline_terrain::library::ExemplarSpec;
-use ridgeline_terrain::shard::{ShardError, ShardScorer};
-use sha2::{Digest, Sha256};
+use ridgeline_terrain::exemplar_source::{sha256_hex, ExemplarSource, Transport};
+use ridgeline_terrain::shard::{LevelSpec, ShardError, ShardScorer, OUTPUT_LEVEL};
+use ridgeline_terrain::TerrainError;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-/// Hashes the exemplars of a library for upload (SHA-256 of each file).
-pub fn remote_exemplars(items: &[(u32, ExemplarSpec)]) -> Result<Vec<RemoteExemplar>, ridgeline_terrain::TerrainError> {
+/// Each exemplar as the workers will know it: stored kinds (DEM files, samples in
+/// memory) named by the SHA-256 of their bytes, which travel only to a worker that
+/// lacks them; generators by their recipe, which travels instead of any samples.
+pub fn remote_exemplars(items: &[(u32, Arc<dyn ExemplarSource>)]) -> Result<Vec<RemoteExemplar>, TerrainError> {
     items
         .iter()
-        .map(|(id, spec)| {
-            let bytes = std::fs::read(&spec.path)
-                .map_err(|source| ridgeline_terrain::TerrainError::Read { path: spec.path.clone(), cause: source.into() })?;
-            let hash: String = Sha256::digest(&bytes).iter().map(|b| format!("{b:02x}")).collect();
-            Ok(RemoteExemplar {
-                wire: v1::ExemplarRef {
-                    source: *id,
-                    name: spec.name(),
-                    content_hash: hash,
-                    cell_size_m: spec.cell_size_m,
-                    to_metres: spec.to_metres,
-                    nodata: spec.nodata,
-                },
-                extension: spec.path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default(),
-                path: spec.path.clone(),
-            })
+        .map(|(id, src)| {
+            let mut wire = v1::ExemplarRef { source: *id, name: src.name(), to_metres: 1.0, ..Default::default() };
+            let upload = match src.transport()? {
+                Transport::DemFile(spec) => {
+                    let bytes = std::fs::read(&spec.path)
+                        .map_err(|source| TerrainError::Read { path: spec.path.clone(), cause: source.into() })?;
+                    wire.content_hash = sha256_hex(&bytes);
+                    wire.cell_size_m = spec.cell_size_m;
+                    wire.to_metres = spec.to_metres;
+                    wire.nodata = spec.nodata;
+                    wire.set_kind(v1::ExemplarKind::DemFile);
+                    let extension = spec.path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
+                    Some(Upload::File { path: spec.path.clone(), extension })
+                }
+                Transport::Samples { bytes, cell_size_m } => {
+                    wire.content_hash = sha256_hex(&bytes);
+                    wire.cell_size_m = cell_size_m;
+                    wire.set_kind(v1::ExemplarKind::Samples);
+                    Some(Upload::Bytes { bytes, extension: "tif".into() })
+                }
+                Transport::Recipe(recipe) => {
+                    wire.recipe_json = serde_json::to_string(&recipe).map_err(|e| TerrainError::Other(e.to_string()))?;
+                    // names the recipe in the candidate-count cache; nothing is stored
+                    wire.content_hash = sha256_hex(wire.recipe_json.as_bytes());
+                    wire.set_kind(v1::ExemplarKind::Generator);
+                    None
+                }
+            };
+            Ok(RemoteExemplar { wire, upload })
         })
         .collect()
 }
@@ -67,8 +83,8 @@ fn counts_path(cache: &Path) -> PathBuf {
     cache.join("candidate-counts.json")
 }
 
-fn count_key(e: &RemoteExemplar, patch: usize, out_cell: Option<f32>) -> String {
-    format!("{}:{patch}:{out_cell:?}", e.wire.content_hash)
+fn count_key(e: &RemoteExemplar, level: &LevelSpec) -> String {
+    format!("{}:{}:{:?}", e.wire.content_hash, level.patch, level.out_cell)
 }
 
 /// Loads a library onto a cluster: one shard per live worker, balanced by candidate
@@ -78,26 +94,24 @@ fn count_key(e: &RemoteExemplar, patch: usize, out_cell: Option<f32>) -> String 
 /// by those (areas of new exemplars are scaled to candidate units by the known ratio).
 pub fn remote_shards(
     cluster: &Arc<Cluster>,
-    items: &[(u32, ExemplarSpec)],
-    patch: usize,
-    out_cell: Option<f32>,
+    items: &[(u32, Arc<dyn ExemplarSource>)],
+    levels: &[LevelSpec],
     cache: Option<&Path>,
 ) -> Result<Vec<Arc<dyn ShardScorer>>, ShardError> {
     let live = cluster.live();
     let ex = remote_exemplars(items).map_err(|e| ShardError::BadRequest(e.to_string()))?;
+    let first = levels.first().copied().ok_or_else(|| ShardError::BadRequest("a shard needs a level".into()))?;
+    let out_cell = first.out_cell;
     let mut known: BTreeMap<String, u64> =
         cache.and_then(|c| std::fs::read(counts_path(c)).ok()).and_then(|b| serde_json::from_slice(&b).ok()).unwrap_or_default();
     let areas: Vec<u64> = items.iter().map(|(_, s)| s.cells_at(out_cell)).collect();
-    let ratios: Vec<f64> = ex
-        .iter()
-        .zip(&areas)
-        .filter_map(|(e, &a)| known.get(&count_key(e, patch, out_cell)).map(|&c| c as f64 / a as f64))
-        .collect();
+    let ratios: Vec<f64> =
+        ex.iter().zip(&areas).filter_map(|(e, &a)| known.get(&count_key(e, &first)).map(|&c| c as f64 / a as f64)).collect();
     let ratio = if ratios.is_empty() { 1.0 } else { ratios.iter().sum::<f64>() / ratios.len() as f64 };
     let weights: Vec<u64> = ex
         .iter()
         .zip(&areas)
-        .map(|(e, &a)| known.get(&count_key(e, patch, out_cell)).copied().unwrap_or(((a as f64) * ratio).max(1.0) as u64))
+        .map(|(e, &a)| known.get(&count_key(e, &first)).copied().unwrap_or(((a as f64) * ratio).max(1.0) as u64))
         .collect();
     let keys: Vec<String> = live.iter().map(|&w| cluster.worker_key(w)).collect();
     let rates = cluster.rates.rates(&keys, cache);
@@ -118,12 +132,12 @@ pub fn remote_shards(
             continue;
         }
         let shard_ex: Vec<RemoteExemplar> = part.iter().map(|&k| ex[k].clone()).collect();
-        let shard = RemoteShard::assign(cluster.clone(), i, shard_ex, patch, out_cell, live[i])?;
-        for s in shard.sources() {
+        let shard = RemoteShard::assign(cluster.clone(), i, shard_ex, levels.to_vec(), live[i])?;
+        for s in shard.sources(OUTPUT_LEVEL) {
             if let Some(e) = ex.iter().find(|e| e.wire.source == s.source) {
                 let count =
                     ridgeline_terrain::shard::candidate_variants(&s.feature_nodes.map(|_, &n| n as u64), s.featureless as u64);
-                known.insert(count_key(e, patch, out_cell), count.max(1) as u64);
+                known.insert(count_key(e, &first), count.max(1) as u64);
             }
         }
         shards.push(Arc::new(shard));

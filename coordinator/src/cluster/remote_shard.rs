@@ -8,8 +8,8 @@ use prost::Message;
 use ridgeline_proto::convert::*;
 use ridgeline_proto::v1;
 use ridgeline_terrain::shard::{
-    candidate_counts, fill_samples, round1_samples, BestSet, FillBestSet, FillQuery, ShardClock, ShardError, ShardScorer,
-    ShardTimes, SkippedExemplar, SourceInfo, UserPatchQuery,
+    candidate_counts, fill_samples, round1_samples, BestSet, FillBestSet, FillQuery, LevelSpec, ShardClock, ShardError,
+    ShardScorer, ShardTimes, SkippedExemplar, SourceInfo, UserPatchQuery,
 };
 use sha2::{Digest, Sha256};
 use std::path::PathBuf;
@@ -21,28 +21,54 @@ use tonic::Status;
 struct ShardState {
     worker: usize,
     stream: Option<(tokio::sync::mpsc::Sender<v1::ScoreRequest>, tonic::Streaming<v1::ScoreReply>)>,
-    sources: Vec<SourceInfo>,
-    skipped: Vec<SkippedExemplar>,
+    /// The worker's answer to loading the shard: its sources at each level and what it
+    /// skipped (`None` until it is loaded there).
+    loaded: Option<(Vec<Vec<SourceInfo>>, Vec<SkippedExemplar>)>,
 }
 
 /// A shard served by a gRPC worker, failing over to other workers.
 pub struct RemoteShard {
     cluster: Arc<Cluster>,
     key: String,
-    patch: usize,
-    out_cell: Option<f32>,
+    levels: Vec<LevelSpec>,
     exemplars: Vec<RemoteExemplar>,
     state: Mutex<ShardState>,
     next_block: AtomicU32,
     clock: ShardClock,
 }
 
-/// One exemplar as the cluster sees it.
+/// One exemplar as the cluster sees it: its reference, and the bytes a worker that
+/// lacks them is sent (none for a generator).
 #[derive(Debug, Clone)]
 pub struct RemoteExemplar {
     pub wire: v1::ExemplarRef,
-    pub path: PathBuf,
-    pub extension: String,
+    pub upload: Option<Upload>,
+}
+
+/// Bytes a worker stores under their hash, with the extension it reads them by.
+#[derive(Debug, Clone)]
+pub enum Upload {
+    /// A file, read when a worker lacks it.
+    File { path: PathBuf, extension: String },
+    /// Bytes in memory (samples encoded as a float TIFF).
+    Bytes { bytes: Arc<Vec<u8>>, extension: String },
+}
+
+impl Upload {
+    fn extension(&self) -> &str {
+        match self {
+            Upload::File { extension, .. } | Upload::Bytes { extension, .. } => extension,
+        }
+    }
+
+    fn bytes(&self) -> Result<Arc<Vec<u8>>, Status> {
+        match self {
+            Upload::File { path, .. } => {
+                std::fs::read(path).map(Arc::new).map_err(|err| Status::failed_precondition(format!("{}: {err}", path.display())))
+            }
+            Upload::Bytes { bytes, .. } => Ok(bytes.clone()),
+        }
+    }
 }
 
 const CHUNK: usize = 1 << 20;
@@ -53,12 +79,11 @@ impl RemoteShard {
         cluster: Arc<Cluster>,
         index: usize,
         exemplars: Vec<RemoteExemplar>,
-        patch: usize,
-        out_cell: Option<f32>,
+        levels: Vec<LevelSpec>,
         worker: usize,
     ) -> Result<RemoteShard, ShardError> {
         let mut h = Sha256::new();
-        h.update(format!("{patch}:{out_cell:?}").as_bytes());
+        h.update(format!("{levels:?}").as_bytes());
         for e in &exemplars {
             h.update(format!("{:?}", e.wire).as_bytes());
         }
@@ -66,10 +91,9 @@ impl RemoteShard {
         let shard = RemoteShard {
             cluster,
             key: format!("shard-{index}-{digest}"),
-            patch,
-            out_cell,
+            levels,
             exemplars,
-            state: Mutex::new(ShardState { worker, stream: None, sources: Vec::new(), skipped: Vec::new() }),
+            state: Mutex::new(ShardState { worker, stream: None, loaded: None }),
             next_block: AtomicU32::new(0),
             clock: ShardClock::default(),
         };
@@ -89,18 +113,23 @@ impl RemoteShard {
     async fn load_on(&self, w: usize) -> Result<v1::LoadShardReply, Status> {
         let c = &self.cluster;
         let mut client = c.client(w).await?;
-        let hashes: Vec<String> = self.exemplars.iter().map(|e| e.wire.content_hash.clone()).collect();
-        let missing = client.missing_exemplars(v1::MissingRequest { content_hashes: hashes }).await?.into_inner().content_hashes;
-        for e in self.exemplars.iter().filter(|e| missing.contains(&e.wire.content_hash)) {
-            let bytes =
-                std::fs::read(&e.path).map_err(|err| Status::failed_precondition(format!("{}: {err}", e.path.display())))?;
+        let stored: Vec<(&RemoteExemplar, &Upload)> =
+            self.exemplars.iter().filter_map(|e| e.upload.as_ref().map(|u| (e, u))).collect();
+        let hashes: Vec<String> = stored.iter().map(|(e, _)| e.wire.content_hash.clone()).collect();
+        let missing = if hashes.is_empty() {
+            Vec::new()
+        } else {
+            client.missing_exemplars(v1::MissingRequest { content_hashes: hashes }).await?.into_inner().content_hashes
+        };
+        for (e, upload) in stored.into_iter().filter(|(e, _)| missing.contains(&e.wire.content_hash)) {
+            let bytes = upload.bytes()?;
             let total = bytes.len() as u64;
             let chunks: Vec<v1::ExemplarChunk> = bytes
                 .chunks(CHUNK)
                 .enumerate()
                 .map(|(i, d)| v1::ExemplarChunk {
                     content_hash: if i == 0 { e.wire.content_hash.clone() } else { String::new() },
-                    extension: if i == 0 { e.extension.clone() } else { String::new() },
+                    extension: if i == 0 { upload.extension().to_string() } else { String::new() },
                     total_size: if i == 0 { total } else { 0 },
                     data: d.to_vec(),
                 })
@@ -111,9 +140,8 @@ impl RemoteShard {
         }
         let req = v1::LoadShardRequest {
             shard_key: self.key.clone(),
-            patch: self.patch as u32,
-            out_cell: self.out_cell,
             exemplars: self.exemplars.iter().map(|e| e.wire.clone()).collect(),
+            levels: self.levels.iter().map(level_to_wire).collect(),
         };
         Ok(client.load_shard(req).await?.into_inner())
     }
@@ -125,7 +153,7 @@ impl RemoteShard {
         loop {
             let w = st.worker;
             // make sure the shard is loaded there (cheap when it already is)
-            if st.sources.is_empty() && st.skipped.is_empty() {
+            if st.loaded.is_none() {
                 let load = self.cluster.rt.block_on(async {
                     tokio::time::timeout(self.cluster.cfg.load_timeout, self.load_on(w))
                         .await
@@ -133,13 +161,17 @@ impl RemoteShard {
                 });
                 match load {
                     Ok(r) => {
-                        st.sources = r
-                            .sources
+                        let bad = |e: String| ShardError::BadRequest(format!("{}: {e}", self.cluster.url(w)));
+                        if r.levels.len() != self.levels.len() {
+                            return Err(bad(format!("answered for {} of {} levels", r.levels.len(), self.levels.len())));
+                        }
+                        let levels = r
+                            .levels
                             .into_iter()
-                            .map(source_from_wire)
-                            .collect::<Result<_, _>>()
-                            .map_err(|e| ShardError::BadRequest(format!("{}: {e}", self.cluster.url(w))))?;
-                        st.skipped = r.skipped.into_iter().map(skipped_from_wire).collect();
+                            .map(|l| l.sources.into_iter().map(source_from_wire).collect::<Result<Vec<_>, _>>())
+                            .collect::<Result<Vec<_>, _>>()
+                            .map_err(bad)?;
+                        st.loaded = Some((levels, r.skipped.into_iter().map(skipped_from_wire).collect()));
                     }
                     Err(s) if retryable(&s) || s.code() == tonic::Code::Unauthenticated => {
                         self.fail_over(&mut st, &s)?;
@@ -159,8 +191,7 @@ impl RemoteShard {
                         st.stream = None;
                         if s.code() == tonic::Code::NotFound {
                             // the worker lost the shard (restart, eviction): load it again
-                            st.sources.clear();
-                            st.skipped.clear();
+                            st.loaded = None;
                             last = s;
                             break;
                         }
@@ -188,8 +219,7 @@ impl RemoteShard {
         // a replaced or added pod behind a dns:/// name can take over
         self.cluster.rediscover();
         st.stream = None;
-        st.sources.clear();
-        st.skipped.clear();
+        st.loaded = None;
         let next = self.cluster.next_alive(w).ok_or_else(|| {
             ShardError::Unavailable(format!(
                 "no live worker left for {} (last error from {}: {})",
@@ -232,9 +262,17 @@ impl RemoteShard {
 }
 
 impl RemoteShard {
-    /// The shard's candidate counts (feature nodes per kind, featureless patches).
-    fn counts(&self) -> (ridgeline_terrain::PerKind<u64>, u64) {
-        self.state.lock().map(|s| candidate_counts(&s.sources)).unwrap_or_default()
+    /// The shard's candidate counts at `level` (feature nodes per kind, featureless patches).
+    fn counts(&self, level: usize) -> (ridgeline_terrain::PerKind<u64>, u64) {
+        candidate_counts(&self.sources(level))
+    }
+
+    /// The patch side at `level`; a bad request for a level the shard lacks.
+    fn patch(&self, level: usize) -> Result<usize, ShardError> {
+        self.levels
+            .get(level)
+            .map(|l| l.patch)
+            .ok_or_else(|| ShardError::BadRequest(format!("level {level}: the shard has {} level(s)", self.levels.len())))
     }
 
     /// Records an answered call in the shard's clock and the answering worker's rate.
@@ -250,8 +288,13 @@ impl RemoteShard {
 }
 
 impl ShardScorer for RemoteShard {
-    fn sources(&self) -> Vec<SourceInfo> {
-        self.state.lock().map(|s| s.sources.clone()).unwrap_or_default()
+    fn levels(&self) -> Vec<LevelSpec> {
+        self.levels.clone()
+    }
+
+    fn sources(&self, level: usize) -> Vec<SourceInfo> {
+        let st = self.state.lock();
+        st.ok().and_then(|s| s.loaded.as_ref().and_then(|l| l.0.get(level).cloned())).unwrap_or_default()
     }
 
     fn backend(&self) -> String {
@@ -264,39 +307,44 @@ impl ShardScorer for RemoteShard {
     }
 
     fn skipped(&self) -> Vec<SkippedExemplar> {
-        self.state.lock().map(|s| s.skipped.clone()).unwrap_or_default()
+        let st = self.state.lock();
+        st.ok().and_then(|s| s.loaded.as_ref().map(|l| l.1.clone())).unwrap_or_default()
     }
 
     fn times(&self) -> ShardTimes {
         self.clock.get()
     }
 
-    fn score_block(&self, block: &[UserPatchQuery], k: usize) -> Result<Vec<BestSet>, ShardError> {
+    fn score_block(&self, level: usize, block: &[UserPatchQuery], k: usize) -> Result<Vec<BestSet>, ShardError> {
+        let patch = self.patch(level)?;
         let req = v1::ScoreRequest {
             shard_key: self.key.clone(),
             block_index: self.next_block.fetch_add(1, Ordering::SeqCst),
             k: k as u32,
             queries: block.iter().map(query_to_wire).collect(),
+            level: level as u32,
         };
         let _span = tracing::debug_span!("worker_call", shard = %self.key, block = req.block_index).entered();
         let t = std::time::Instant::now();
         let reply = self.with_failover(|s, st| s.score_once(st, &req));
         ridgeline_ops::metrics::metrics().coordinator_call("round1", reply.is_ok());
         let reply = reply?;
-        let samples = round1_samples(&self.counts().0, block);
+        let samples = round1_samples(&self.counts(level).0, block);
         self.measured(t.elapsed().as_secs_f64(), samples, true);
         let stats = &self.cluster.stats;
         stats.add_call(req.encoded_len() as u64, reply.encoded_len() as u64);
-        reply.best_sets.into_iter().map(|b| best_set_from_wire(b, self.patch).map_err(ShardError::BadRequest)).collect()
+        reply.best_sets.into_iter().map(|b| best_set_from_wire(b, patch).map_err(ShardError::BadRequest)).collect()
     }
 
-    fn score_fill(&self, targets: &[FillQuery], seed: u64, k: usize) -> Result<Vec<FillBestSet>, ShardError> {
+    fn score_fill(&self, level: usize, targets: &[FillQuery], seed: u64, k: usize) -> Result<Vec<FillBestSet>, ShardError> {
+        let patch = self.patch(level)?;
         let req = v1::FillRequest {
             fill_version: ridgeline_proto::FILL_VERSION,
             shard_key: self.key.clone(),
             k: k as u32,
             seed,
             targets: targets.iter().map(fill_target_to_wire).collect(),
+            level: level as u32,
         };
         let _span = tracing::debug_span!("worker_call", shard = %self.key, fill_targets = targets.len()).entered();
         let t = std::time::Instant::now();
@@ -312,9 +360,9 @@ impl ShardScorer for RemoteShard {
         });
         ridgeline_ops::metrics::metrics().coordinator_call("fill", reply.is_ok());
         let reply = reply?;
-        self.measured(t.elapsed().as_secs_f64(), fill_samples(self.counts().1, targets), false);
+        self.measured(t.elapsed().as_secs_f64(), fill_samples(self.counts(level).1, targets), false);
         let stats = &self.cluster.stats;
         stats.add_call(req.encoded_len() as u64, reply.encoded_len() as u64);
-        reply.best_sets.into_iter().map(|b| fill_set_from_wire(b, self.patch).map_err(ShardError::BadRequest)).collect()
+        reply.best_sets.into_iter().map(|b| fill_set_from_wire(b, patch).map_err(ShardError::BadRequest)).collect()
     }
 }

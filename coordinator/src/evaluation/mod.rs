@@ -237,25 +237,31 @@ pub fn provenance_of(canvas: &crate::canvas::Canvas, exemplars: &[ridgeline_terr
     }
 }
 
-/// Loads the library's exemplars at the output cell size `cell` (only those named in
-/// `wanted`, when given), by file name.
+/// The heights of `sources` at the output cell size `cell` (only those named in
+/// `wanted`'s placements, when given), by name.
 pub fn load_sources(
+    sources: &[std::sync::Arc<dyn ridgeline_terrain::ExemplarSource>],
+    cell: Option<f32>,
+    wanted: Option<&Provenance>,
+) -> Result<Vec<(String, Heightfield)>, ridgeline_terrain::TerrainError> {
+    let used = |n: &String| wanted.is_none_or(|p| p.placements.iter().any(|pl| &pl.exemplar == n));
+    let mut out = Vec::new();
+    for s in sources {
+        let name = s.name();
+        if used(&name) {
+            out.push((name, s.heights(cell, ridgeline_terrain::io::DEFAULT_MAX_SIDE)?));
+        }
+    }
+    Ok(out)
+}
+
+/// [`load_sources`] for the files of a library (a folder, a DEM file or a manifest).
+pub fn load_library(
     library: &std::path::Path,
     cell: Option<f32>,
     wanted: Option<&Provenance>,
 ) -> Result<Vec<(String, Heightfield)>, ridgeline_terrain::TerrainError> {
-    let specs = ridgeline_terrain::library::scan_library(library)?;
-    let used = |n: &String| wanted.is_none_or(|p| p.placements.iter().any(|pl| &pl.exemplar == n));
-    let mut out = Vec::new();
-    for spec in specs {
-        let name = spec.name();
-        if !used(&name) {
-            continue;
-        }
-        let h = ridgeline_terrain::library::load_exemplar(&spec, cell, ridgeline_terrain::io::DEFAULT_MAX_SIDE)?;
-        out.push((name, h));
-    }
-    Ok(out)
+    load_sources(&ridgeline_terrain::exemplar_source::library_sources(library)?, cell, wanted)
 }
 
 impl Evaluation {

@@ -35,14 +35,17 @@ use super::SynthError;
 use crate::canvas::Canvas;
 use crate::evaluation::quality::{adherence, seam_score};
 use crate::progress::Stage;
-use crate::stages::exemplars::{self, Backend, ExemplarSource, Fleet, LoadSettings};
+use crate::stages::exemplars::{self, Backend, Fleet, LoadSettings};
 use crate::stages::feature_placement::{place_features, PlacementSettings};
 use crate::stages::hole_filling::fill_holes;
 use crate::stages::sketch::{self, SketchFeatures};
 use crate::stages::sketch_fit::{fit_to_sketch, FitStats};
 use crate::stages::user_patches::{count_by_kind, user_patches, UserPatch};
+use ridgeline_terrain::exemplar_source::ExemplarSource;
 use ridgeline_terrain::grid::{Grid, Heightfield};
-use ridgeline_terrain::shard::ShardTimes;
+use ridgeline_terrain::shard::{ShardTimes, OUTPUT_LEVEL};
+use std::path::Path;
+use std::sync::Arc;
 
 /// What the stages made.
 pub struct SynthOutput {
@@ -65,7 +68,10 @@ impl SynthOutput {
 /// A job as the pipeline runs it.
 pub struct JobInputs<'a> {
     pub sketch: Grid<u8>,
-    pub exemplars: &'a ExemplarSource,
+    /// The exemplar sources, in order (their index is their source id)…
+    pub sources: &'a [Arc<dyn ExemplarSource>],
+    /// …and the library they came from, for messages.
+    pub library: Option<&'a Path>,
     pub backend: &'a Backend,
     /// The fleet, connected, when the backend is one.
     pub fleet: Option<&'a Fleet>,
@@ -79,7 +85,9 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
     let (w, h) = (job.sketch.width, job.sketch.height);
     let in_process = job.backend.in_process();
     let load = LoadSettings { patch: p, cell_size: set.cell_size, max_side: set.max_side, cache_dir: set.cache_dir.clone() };
-    let ex = run.run(Stage::Exemplars, |cx| Ok(cx.install(|| exemplars::load(job.exemplars, job.fleet, in_process, &load))?))?;
+    let what = job.library.map_or_else(|| "(exemplars in memory)".to_string(), |p| p.display().to_string());
+    let ex =
+        run.run(Stage::Exemplars, |cx| Ok(cx.install(|| exemplars::load(job.sources, &what, job.fleet, in_process, &load))?))?;
     let shards = &ex.shards;
     let times_before: Vec<ShardTimes> = shards.iter().map(|s| s.times()).collect();
 
@@ -94,6 +102,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
             cx.placements(c);
         };
         let settings = PlacementSettings {
+            level: OUTPUT_LEVEL,
             k: set.k,
             block: set.block,
             seed: set.seed,
@@ -112,7 +121,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
             cx.progress(empty - left, empty);
             cx.placements(c);
         };
-        Ok(fill_holes(&mut canvas, shards, set.seed, cx.pool, &on_fill, cx.cancel)?)
+        Ok(fill_holes(&mut canvas, shards, OUTPUT_LEVEL, set.seed, cx.pool, &on_fill, cx.cancel)?)
     })?;
 
     let sketch_fit = match set.fit_sketch {
@@ -122,7 +131,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
 
     // the report: what each stage did, the quality figures, each shard's part
     let exemplars: Vec<_> = {
-        let mut e: Vec<_> = shards.iter().flat_map(|s| s.sources()).collect();
+        let mut e: Vec<_> = shards.iter().flat_map(|s| s.sources(OUTPUT_LEVEL)).collect();
         e.sort_by_key(|e| e.source);
         e
     };

@@ -8,7 +8,7 @@ use crate::evaluation::quality::{Adherence, SeamScore};
 use crate::stages::feature_placement::PlacementStats;
 use crate::stages::hole_filling::FillStats;
 use crate::stages::sketch_fit::FitStats;
-use ridgeline_terrain::shard::{ShardScorer, ShardTimes, SkippedExemplar, SourceInfo};
+use ridgeline_terrain::shard::{ShardScorer, ShardTimes, SkippedExemplar, SourceInfo, OUTPUT_LEVEL};
 use ridgeline_terrain::PerKind;
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -82,10 +82,11 @@ impl ShardReport {
             .iter()
             .zip(before)
             .map(|(s, before)| {
-                let (nodes, pool) = ridgeline_terrain::shard::candidate_counts(&s.sources());
+                let sources = s.sources(OUTPUT_LEVEL);
+                let (nodes, pool) = ridgeline_terrain::shard::candidate_counts(&sources);
                 ShardReport {
                     backend: s.backend(),
-                    exemplars: s.sources().len(),
+                    exemplars: sources.len(),
                     candidate_variants: ridgeline_terrain::shard::candidate_variants(&nodes, pool),
                     times: s.times().since(before),
                 }

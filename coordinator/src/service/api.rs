@@ -17,7 +17,7 @@
 use super::jobs::{JobEvent, SubmitError};
 use super::state::AppState;
 use crate::outputs::OutputFiles;
-use crate::session::{ExemplarSource, Session, SketchSource, StrokeSketch};
+use crate::session::{Exemplars, Session, SketchSource, StrokeSketch};
 use axum::body::Bytes;
 use axum::extract::{Path, Query, State};
 use axum::http::{header, StatusCode};
@@ -141,7 +141,7 @@ pub async fn submit(State(st): State<Arc<AppState>>, body: Bytes) -> Result<Resp
         queue.submit(size, |dir, cancel| {
             let mut b = Session::builder()
                 .sketch(sketch)
-                .exemplars(ExemplarSource::Library { path: cfg.library.clone(), only: req.exemplars.clone() })
+                .exemplars(Exemplars::Library { path: cfg.library.clone(), only: req.exemplars.clone() })
                 .backend(cfg.backend.clone())
                 .seed(req.seed)
                 .patch_size(req.patch_size)

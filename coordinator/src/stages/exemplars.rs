@@ -1,14 +1,16 @@
-//! The exemplars stage (design.md, Pipeline 1–2; Crause 2015 §5.4): the exemplar
-//! library loaded into the shards the job scores on — in this process, split into
-//! parts by file name order, or onto the gRPC fleet (`cluster`) — with each
-//! exemplar's features from the on-disk cache or extracted (the worker side:
+//! The exemplars stage (design.md, Pipeline 1–2; Crause 2015 §5.4): the job's exemplar
+//! sources — DEM files of a library, heights handed over in memory, generators, each
+//! behind `ridgeline_terrain::ExemplarSource` — loaded into the shards the job scores
+//! on: in this process, split into parts in source order, or onto the gRPC fleet
+//! (`cluster`; stored kinds travel as their bytes, generators as their recipe), with
+//! each exemplar's features from the on-disk cache or extracted (the worker side:
 //! `ridgeline_worker::InProcessShard`). Exemplars that cannot be used are skipped and
 //! listed; the stage fails, saying why each was skipped, only when none is left.
 
 use crate::shards::Shards;
+use ridgeline_terrain::exemplar_source::{library_sources, ExemplarSource, InMemory};
 use ridgeline_terrain::grid::Heightfield;
-use ridgeline_terrain::library::{common_cell_size, scan_library, ExemplarSpec};
-use ridgeline_terrain::shard::{ShardError, ShardScorer};
+use ridgeline_terrain::shard::{LevelSpec, ShardError, ShardScorer, OUTPUT_LEVEL};
 use ridgeline_terrain::TerrainError;
 use ridgeline_worker::{open_device, FeatureCache, GpuMode, InProcessShard, ShardConfig};
 use std::path::{Path, PathBuf};
@@ -16,29 +18,69 @@ use std::sync::Arc;
 
 /// Where the exemplars come from.
 #[derive(Debug, Clone)]
-pub enum ExemplarSource {
-    /// A folder of DEMs or a `manifest.toml`; `only`: use just these file names.
+pub enum Exemplars {
+    /// A folder of DEMs, a DEM file or a manifest; `only`: just the exemplars of these
+    /// names.
     Library { path: PathBuf, only: Option<Vec<String>> },
-    /// Heightfields in memory, by name: heights in metres, all at `cell_size_m`.
-    InMemory { cell_size_m: Option<f32>, exemplars: Vec<(String, Heightfield)> },
+    /// Sources of any kind (files, heights in memory, generators), in this order.
+    Sources(Vec<Arc<dyn ExemplarSource>>),
 }
 
-impl ExemplarSource {
-    /// The whole library of a folder or manifest.
+impl Exemplars {
+    /// The whole library of a folder, DEM file or manifest.
     pub fn library(path: impl Into<PathBuf>) -> Self {
-        ExemplarSource::Library { path: path.into(), only: None }
+        Exemplars::Library { path: path.into(), only: None }
     }
 
-    /// The files of a library source (its subset applied); `None` for exemplars in memory.
-    pub fn specs(&self) -> Option<Result<Vec<ExemplarSpec>, TerrainError>> {
-        let ExemplarSource::Library { path, only } = self else { return None };
-        Some(scan_library(path).map(|mut specs| {
-            if let Some(only) = only {
-                specs.retain(|s| only.contains(&s.name()));
-            }
-            specs
-        }))
+    /// Heightfields in memory, by name: heights in metres, all at `cell_size_m`.
+    pub fn in_memory(cell_size_m: Option<f32>, exemplars: Vec<(String, Heightfield)>) -> Self {
+        Exemplars::Sources(
+            exemplars
+                .into_iter()
+                .map(|(name, h)| Arc::new(InMemory::new(name, h, cell_size_m)) as Arc<dyn ExemplarSource>)
+                .collect(),
+        )
     }
+
+    /// The library's folder or manifest, when the exemplars are one (no output may
+    /// land in it).
+    pub fn library_path(&self) -> Option<&Path> {
+        match self {
+            Exemplars::Library { path, .. } => Some(path),
+            Exemplars::Sources(_) => None,
+        }
+    }
+
+    /// Every source, a library's subset applied (a name of `only` the library lacks
+    /// is an error naming it).
+    pub fn sources(&self) -> Result<Vec<Arc<dyn ExemplarSource>>, TerrainError> {
+        match self {
+            Exemplars::Sources(s) => Ok(s.clone()),
+            Exemplars::Library { path, only } => {
+                let mut sources = library_sources(path)?;
+                if let Some(only) = only {
+                    let invalid = |message: String| TerrainError::Invalid { path: path.clone(), message };
+                    if only.is_empty() {
+                        return Err(invalid("the subset of exemplars is empty".into()));
+                    }
+                    if let Some(missing) = only.iter().find(|n| !sources.iter().any(|s| &s.name() == *n)) {
+                        return Err(invalid(format!("no exemplar named '{missing}' in the library")));
+                    }
+                    sources.retain(|s| only.contains(&s.name()));
+                }
+                Ok(sources)
+            }
+        }
+    }
+}
+
+/// The most common cell size among `sources` (ties: the smaller), if any is known.
+pub fn common_cell_size(sources: &[Arc<dyn ExemplarSource>]) -> Option<f32> {
+    let mut counts: std::collections::BTreeMap<u32, usize> = Default::default();
+    for c in sources.iter().filter_map(|s| s.cell_size_m()) {
+        *counts.entry((c * 1000.0).round() as u32).or_default() += 1;
+    }
+    counts.into_iter().max_by(|a, b| a.1.cmp(&b.1).then(b.0.cmp(&a.0))).map(|(c, _)| c as f32 / 1000.0)
 }
 
 /// Where user patches are scored.
@@ -109,14 +151,14 @@ pub fn remember_throughput(fleet: &Fleet, cache: &Path) {
 #[derive(Debug, Clone)]
 pub struct LoadSettings {
     pub patch: usize,
-    /// Output cell size in metres; `None`: the library's most common.
+    /// Output cell size in metres; `None`: the sources' most common.
     pub cell_size: Option<f32>,
     pub max_side: u32,
     pub cache_dir: Option<PathBuf>,
 }
 
 /// The stage's result: the shards and the output cell size they were prepared at.
-pub struct Exemplars {
+pub struct LoadedExemplars {
     pub shards: Shards,
     pub cell_size_m: Option<f32>,
 }
@@ -127,65 +169,49 @@ pub enum ExemplarsError {
     #[error(transparent)]
     Terrain(#[from] TerrainError),
     #[error("{0}: no usable exemplar (DEMs in PNG, TIFF, HGT or ASCII grid, larger than a patch in every orientation){1}")]
-    NoExemplars(PathBuf, String),
+    NoExemplars(String, String),
     #[error(transparent)]
     Shard(#[from] ShardError),
     #[error(transparent)]
     Gpu(#[from] ridgeline_worker::GpuError),
 }
 
-/// Loads `source` into shards: on the `fleet`'s workers when there is one, else into
-/// `parts` in-process shards scored as `gpu` says.
+/// Loads `sources` into shards: on the `fleet`'s workers when there is one, else into
+/// `parts` in-process shards scored as `gpu` says. `what` names the exemplars in an
+/// error (the library's path).
 pub fn load(
-    source: &ExemplarSource,
+    sources: &[Arc<dyn ExemplarSource>],
+    what: &str,
     fleet: Option<&Fleet>,
     (gpu, parts): (GpuMode, usize),
     set: &LoadSettings,
-) -> Result<Exemplars, ExemplarsError> {
-    let shard_cfg = |cell: Option<f32>| -> Result<ShardConfig, ExemplarsError> {
-        Ok(ShardConfig {
-            patch: set.patch,
-            out_cell: cell,
-            max_side: set.max_side,
-            cache: set.cache_dir.clone().map(FeatureCache::new),
-            gpu: if fleet.is_none() { open_device(gpu)? } else { None },
-        })
-    };
-    let (shards, cell, what): (Shards, Option<f32>, PathBuf) = match source {
-        ExemplarSource::Library { path, .. } => {
-            let specs = source.specs().unwrap_or_else(|| Ok(Vec::new()))?;
-            if specs.is_empty() {
-                return Err(ExemplarsError::NoExemplars(path.clone(), String::new()));
-            }
-            let cell = set.cell_size.or_else(|| common_cell_size(&specs));
-            let items: Vec<(u32, ExemplarSpec)> = specs.into_iter().enumerate().map(|(i, s)| (i as u32, s)).collect();
-            let shards: Shards = match fleet {
-                #[cfg(feature = "fleet")]
-                Some(c) => crate::cluster::remote_shards(c, &items, set.patch, cell, set.cache_dir.as_deref())?,
-                #[cfg(not(feature = "fleet"))]
-                Some(none) => match *none {},
-                None => {
-                    let cfg = shard_cfg(cell)?;
-                    split(&items, parts).into_iter().map(|part| shard(InProcessShard::load(&part, &cfg))).collect()
-                }
+) -> Result<LoadedExemplars, ExemplarsError> {
+    if sources.is_empty() {
+        return Err(ExemplarsError::NoExemplars(what.to_string(), String::new()));
+    }
+    let cell = set.cell_size.or_else(|| common_cell_size(sources));
+    let levels = vec![LevelSpec { patch: set.patch, out_cell: cell }];
+    let items: Vec<(u32, Arc<dyn ExemplarSource>)> = sources.iter().enumerate().map(|(i, s)| (i as u32, s.clone())).collect();
+    let shards: Shards = match fleet {
+        #[cfg(feature = "fleet")]
+        Some(c) => crate::cluster::remote_shards(c, &items, &levels, set.cache_dir.as_deref())?,
+        #[cfg(not(feature = "fleet"))]
+        Some(none) => match *none {},
+        None => {
+            let cfg = ShardConfig {
+                levels,
+                max_side: set.max_side,
+                cache: set.cache_dir.clone().map(FeatureCache::new),
+                gpu: open_device(gpu)?,
             };
-            (shards, cell, path.clone())
-        }
-        ExemplarSource::InMemory { exemplars, .. } => {
-            let cfg = shard_cfg(set.cell_size)?;
-            let items: Vec<(u32, String, Heightfield)> =
-                exemplars.iter().enumerate().map(|(i, (name, h))| (i as u32, name.clone(), h.clone())).collect();
-            let shards =
-                split(&items, parts).into_iter().map(|part| shard(InProcessShard::from_heightfields(part, &cfg))).collect();
-            (shards, set.cell_size, PathBuf::from("(exemplars in memory)"))
+            split(&items, parts)
+                .into_iter()
+                .map(|part| Arc::new(InProcessShard::load(&part, &cfg)) as Arc<dyn ShardScorer>)
+                .collect()
         }
     };
-    some_source(&shards, &what)?;
-    Ok(Exemplars { shards, cell_size_m: cell })
-}
-
-fn shard(s: InProcessShard) -> Arc<dyn ShardScorer> {
-    Arc::new(s)
+    some_source(&shards, what)?;
+    Ok(LoadedExemplars { shards, cell_size_m: cell })
 }
 
 /// `items` dealt round-robin into `parts` in-process shards (at least one, at most one
@@ -196,10 +222,10 @@ fn split<T: Clone>(items: &[T], parts: usize) -> Vec<Vec<T>> {
 }
 
 /// `Err(NoExemplars)` when no shard holds a usable exemplar, listing why each was skipped.
-fn some_source(shards: &[Arc<dyn ShardScorer>], what: &Path) -> Result<(), ExemplarsError> {
-    if shards.iter().all(|s| s.sources().is_empty()) {
+fn some_source(shards: &[Arc<dyn ShardScorer>], what: &str) -> Result<(), ExemplarsError> {
+    if shards.iter().all(|s| s.sources(OUTPUT_LEVEL).is_empty()) {
         let why: Vec<String> = shards.iter().flat_map(|s| s.skipped()).map(|s| format!("\n  skipped {}", s.reason)).collect();
-        return Err(ExemplarsError::NoExemplars(what.to_path_buf(), why.concat()));
+        return Err(ExemplarsError::NoExemplars(what.to_string(), why.concat()));
     }
     Ok(())
 }

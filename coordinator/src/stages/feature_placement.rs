@@ -87,7 +87,12 @@ pub fn next_batch(ups: &[UserPatch], pending: &[usize], patch: usize, max: usize
 /// The fallback for a user patch whose kind no exemplar offers: a valley turned
 /// upside down is a ridge (and vice versa), so the other kind's candidates are
 /// matched against the negated profiles and their pixels negated.
-fn inverted_candidates(shards: &[Arc<dyn ShardScorer>], u: &UserPatch, k: usize) -> Result<Vec<ScoredCandidate>, ShardError> {
+fn inverted_candidates(
+    shards: &[Arc<dyn ShardScorer>],
+    level: usize,
+    u: &UserPatch,
+    k: usize,
+) -> Result<Vec<ScoredCandidate>, ShardError> {
     let mut q = u.query.clone();
     q.kind = u.kind.inverted();
     for p in &mut q.profiles {
@@ -97,7 +102,7 @@ fn inverted_candidates(shards: &[Arc<dyn ShardScorer>], u: &UserPatch, k: usize)
     }
     let mut out = Vec::new();
     for s in shards {
-        for set in s.score_block(std::slice::from_ref(&q), k)? {
+        for set in s.score_block(level, std::slice::from_ref(&q), k)? {
             out.extend(set.entries.into_iter().map(|mut c| {
                 c.pixels.iter_mut().for_each(|v| *v = -*v);
                 c
@@ -110,6 +115,8 @@ fn inverted_candidates(shards: &[Arc<dyn ShardScorer>], u: &UserPatch, k: usize)
 
 /// Settings feature placement needs from the job.
 pub struct PlacementSettings<'a> {
+    /// The level of the shards the canvas is at.
+    pub level: usize,
     pub k: usize,
     pub block: usize,
     pub seed: u64,
@@ -149,7 +156,7 @@ pub fn place_features(
                 let t = Instant::now();
                 let queries: Vec<_> = block.iter().map(|u| u.query.clone()).collect();
                 // every shard scores the block at once (remote shards wait on the network)
-                let answers = on_every_shard(shards, pool, |shard| shard.score_block(&queries, set.k));
+                let answers = on_every_shard(shards, pool, |shard| shard.score_block(set.level, &queries, set.k));
                 let mut sets = Vec::new();
                 for a in answers {
                     match a {
@@ -180,7 +187,7 @@ pub fn place_features(
                     sets.iter().filter(|s| s.user_patch == u.id).flat_map(|s| s.entries.iter().cloned()).collect();
                 c.sort_by(|a, b| a.order(b));
                 if c.is_empty() {
-                    c = pool.install(|| inverted_candidates(shards, u, set.k))?;
+                    c = pool.install(|| inverted_candidates(shards, set.level, u, set.k))?;
                     let what = if c.is_empty() { "left to hole filling" } else { "used inverted candidates of the other kind" };
                     let kind = u.kind.name();
                     let note =

@@ -440,11 +440,12 @@ fn fill_query(canvas: &Canvas, cx: usize, cy: usize, env: &FillEnv) -> (FillQuer
 /// best-sets: for each target, the `GRAPH_CUT_SET` best in the total order.
 fn score_wave(
     shards: &[Arc<dyn ShardScorer>],
+    level: usize,
     queries: &[FillQuery],
     seed: u64,
     pool: &rayon::ThreadPool,
 ) -> Result<Vec<Vec<FillCandidate>>, ShardError> {
-    let answers = on_every_shard(shards, pool, |shard| shard.score_fill(queries, seed, GRAPH_CUT_SET));
+    let answers = on_every_shard(shards, pool, |shard| shard.score_fill(level, queries, seed, GRAPH_CUT_SET));
     let mut merged: Vec<Vec<FillCandidate>> = vec![Vec::new(); queries.len()];
     for a in answers {
         for set in a? {
@@ -482,7 +483,7 @@ fn typical_slope(canvas: &Canvas) -> f32 {
     g[mid].max(1e-3)
 }
 
-/// Fills every empty cell of the canvas, scoring on `shards`. `on_fill` is told how
+/// Fills every empty cell of the canvas, scoring on `shards` at `level` (the canvas's). `on_fill` is told how
 /// many empty cells are left after each wave (with the canvas, whose placements then
 /// include those of the tiles committed so far); `cancel` is checked before each. Call it from outside `pool`: parallel
 /// sections run inside it, and shard calls wait outside it, so no pool thread ever
@@ -490,6 +491,7 @@ fn typical_slope(canvas: &Canvas) -> f32 {
 pub fn fill_holes(
     canvas: &mut Canvas,
     shards: &[Arc<dyn ShardScorer>],
+    level: usize,
     seed: u64,
     pool: &rayon::ThreadPool,
     on_fill: &(dyn Fn(u64, &Canvas) + Sync),
@@ -500,7 +502,7 @@ pub fn fill_holes(
     if canvas.empty == 0 {
         return Ok(stats);
     }
-    let mut reliefs: Vec<f32> = shards.iter().flat_map(|s| s.sources()).flat_map(|s| s.featureless_relief).collect();
+    let mut reliefs: Vec<f32> = shards.iter().flat_map(|s| s.sources(level)).flat_map(|s| s.featureless_relief).collect();
     if reliefs.is_empty() {
         return Err(FillError::NoCandidates);
     }
@@ -512,7 +514,7 @@ pub fn fill_holes(
         // nothing placed (a sketch without strokes): start from one featureless patch,
         // the one the seed's jitter ranks first
         let q = FillQuery { id: 0, samples: Vec::new(), relief: 1.0, noise: None, coherence: Vec::new(), avoid: Vec::new() };
-        let best = score_wave(shards, &[q], seed, pool)?.remove(0);
+        let best = score_wave(shards, level, &[q], seed, pool)?.remove(0);
         let c = best.first().ok_or(FillError::NoCandidates)?;
         let m = canvas.place(w / 2, h / 2, &c.pixels, 0.0, fill_placement(c, w / 2, h / 2));
         stats.fills += 1;
@@ -567,7 +569,7 @@ pub fn fill_holes(
                     let (owners, mut qs): (Vec<usize>, Vec<FillQuery>) = queries.into_iter().unzip();
                     qs.iter_mut().enumerate().for_each(|(i, q)| q.id = i as u32);
                     let ts = Instant::now();
-                    let answers = score_wave(shards, &qs, seed, pool)?;
+                    let answers = score_wave(shards, level, &qs, seed, pool)?;
                     stats.score_s += ts.elapsed().as_secs_f64();
                     let mut per_tile: Vec<Option<Vec<FillCandidate>>> = vec![None; tiles.len()];
                     for (o, a) in owners.into_iter().zip(answers) {
