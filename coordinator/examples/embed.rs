@@ -36,8 +36,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         width: 256,
         height: 256,
         strokes: vec![
-            Stroke { pen: Pen::Ridge, width: 3.0, points: vec![[30.0, 90.0], [128.0, 70.0], [226.0, 100.0]] },
-            Stroke { pen: Pen::Valley, width: 3.0, points: vec![[40.0, 190.0], [220.0, 180.0]] },
+            Stroke::new(Pen::RIDGE, 3.0, vec![[30.0, 90.0], [128.0, 70.0], [226.0, 100.0]]),
+            Stroke::new(Pen::VALLEY, 3.0, vec![[40.0, 190.0], [220.0, 180.0]]),
         ],
     };
     let cancel = CancelToken::new(); // a UI would call cancel.cancel() from its button

@@ -32,6 +32,8 @@ use crate::outputs::OutputFiles;
 use crate::progress::{CancelToken, JobProgress, Progress, Stage};
 use crate::stages::exemplars::common_cell_size;
 pub use crate::stages::exemplars::{Backend, Exemplars};
+use crate::stages::sketch::SketchInput;
+pub use crate::stages::sketch::{Pen, Stroke, StrokeSketch};
 pub use ridgeline_terrain::exemplar_source::{DemFile, ExemplarSource, InMemory};
 use ridgeline_terrain::grid::{Grid, Heightfield};
 use ridgeline_terrain::TerrainError;
@@ -48,96 +50,6 @@ pub enum SketchSource {
     Image(Grid<u8>),
     /// Strokes drawn with pens, rasterised onto a blank sketch.
     Strokes(StrokeSketch),
-}
-
-/// A sketch as pen strokes, as the web page draws it.
-#[derive(Debug, Clone, serde::Deserialize, serde::Serialize)]
-pub struct StrokeSketch {
-    pub width: usize,
-    pub height: usize,
-    pub strokes: Vec<Stroke>,
-}
-
-/// One stroke: a polyline drawn with a round pen.
-#[derive(Debug, Clone, serde::Deserialize, serde::Serialize)]
-pub struct Stroke {
-    pub pen: Pen,
-    /// Pen diameter in cells (1 to 64).
-    pub width: f32,
-    /// Points in cells, `[x, y]`, in drawing order.
-    pub points: Vec<[f32; 2]>,
-}
-
-/// What a stroke draws.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Pen {
-    Ridge,
-    Valley,
-    /// Back to background.
-    Eraser,
-}
-
-/// Widest pen accepted, in cells.
-pub const MAX_PEN_WIDTH: f32 = 64.0;
-
-impl StrokeSketch {
-    /// Checks the strokes: a size within `max_side`, finite points, pen widths in range.
-    pub fn validate(&self, max_side: u32) -> Result<(), String> {
-        if self.width < 16 || self.height < 16 || self.width > max_side as usize || self.height > max_side as usize {
-            return Err(format!("a sketch of {} x {}: each side must be within 16..={max_side}", self.width, self.height));
-        }
-        for (i, s) in self.strokes.iter().enumerate() {
-            if !(s.width.is_finite() && (1.0..=MAX_PEN_WIDTH).contains(&s.width)) {
-                return Err(format!("stroke {i}: pen width {} (use 1 to {MAX_PEN_WIDTH} cells)", s.width));
-            }
-            if s.points.is_empty() {
-                return Err(format!("stroke {i}: no points"));
-            }
-            if s.points.iter().flatten().any(|v| !v.is_finite() || v.abs() > 1e7) {
-                return Err(format!("stroke {i}: a point is not a finite coordinate"));
-            }
-        }
-        Ok(())
-    }
-
-    /// The sketch image: every stroke drawn in order with a round pen of its width.
-    pub fn rasterize(&self) -> Grid<u8> {
-        let mut g = Grid::new(self.width, self.height, 128u8);
-        for s in &self.strokes {
-            let value = match s.pen {
-                Pen::Ridge => 255,
-                Pen::Valley => 0,
-                Pen::Eraser => 128,
-            };
-            let r = (s.width / 2.0).max(0.5);
-            let segments: Vec<([f32; 2], [f32; 2])> = if s.points.len() == 1 {
-                vec![(s.points[0], s.points[0])]
-            } else {
-                s.points.windows(2).map(|w| (w[0], w[1])).collect()
-            };
-            for (a, b) in segments {
-                let x0 = (a[0].min(b[0]) - r).floor().max(0.0) as usize;
-                let y0 = (a[1].min(b[1]) - r).floor().max(0.0) as usize;
-                let x1 = ((a[0].max(b[0]) + r).ceil().max(0.0) as usize).min(self.width);
-                let y1 = ((a[1].max(b[1]) + r).ceil().max(0.0) as usize).min(self.height);
-                for y in y0..y1 {
-                    for x in x0..x1 {
-                        // distance from the cell centre to the segment
-                        let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
-                        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-                        let len2 = dx * dx + dy * dy;
-                        let t = if len2 > 0.0 { (((px - a[0]) * dx + (py - a[1]) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
-                        let (qx, qy) = (a[0] + t * dx - px, a[1] + t * dy - py);
-                        if qx * qx + qy * qy <= r * r {
-                            g.set(x, y, value);
-                        }
-                    }
-                }
-            }
-        }
-        g
-    }
 }
 
 /// Why a session could not be built or run.
@@ -175,7 +87,7 @@ pub struct SessionBuilder {
 
 /// A validated job, ready to run.
 pub struct Session {
-    sketch: Grid<u8>,
+    sketch: SketchInput,
     /// The sketch file, when it came from one (reports and collision checks).
     sketch_path: Option<PathBuf>,
     /// The exemplar sources, a library's subset applied…
@@ -318,9 +230,9 @@ impl SessionBuilder {
         if let Some(o) = &self.outputs {
             o.check_paths()?;
         }
-        let (mut sketch, sketch_path) = match self.sketch {
+        let (sketch, sketch_path) = match self.sketch {
             None => return invalid("no sketch given".into()),
-            Some(SketchSource::File(p)) => (ridgeline_terrain::io::read_sketch(&p, cfg.max_side)?, Some(p)),
+            Some(SketchSource::File(p)) => (SketchInput::Raster(ridgeline_terrain::io::read_sketch(&p, cfg.max_side)?), Some(p)),
             Some(SketchSource::Image(g)) => {
                 if g.width == 0 || g.height == 0 || g.width > cfg.max_side as usize || g.height > cfg.max_side as usize {
                     return invalid(format!(
@@ -328,23 +240,27 @@ impl SessionBuilder {
                         g.width, g.height, cfg.max_side
                     ));
                 }
-                (g, None)
+                (SketchInput::Raster(g), None)
             }
             Some(SketchSource::Strokes(s)) => {
                 if let Err(m) = s.validate(cfg.max_side) {
                     return invalid(m);
                 }
-                (s.rasterize(), None)
+                let size = (s.width, s.height);
+                (SketchInput::Strokes { sketch: s, size }, None)
             }
         };
-        if let Some((w, h)) = self.size {
-            if w < 16 || h < 16 || w > cfg.max_side as usize || h > cfg.max_side as usize {
+        let sketch = match (self.size, sketch) {
+            (Some((w, h)), _) if w < 16 || h < 16 || w > cfg.max_side as usize || h > cfg.max_side as usize => {
                 return invalid(format!("an output of {w} x {h}: each side must be within 16..={}", cfg.max_side));
             }
-            if (w, h) != (sketch.width, sketch.height) {
-                sketch = resample_nearest(&sketch, w, h);
+            (Some((w, h)), SketchInput::Raster(g)) if (w, h) != (g.width, g.height) => {
+                SketchInput::Raster(crate::stages::sketch::resample_nearest(&g, w, h))
             }
-        }
+            (Some(size), SketchInput::Strokes { sketch, .. }) => SketchInput::Strokes { sketch, size },
+            (_, sketch) => sketch,
+        };
+        let (width, height) = sketch.size();
         let exemplars = match self.exemplars {
             None => return invalid("no exemplars given".into()),
             Some(e) => e,
@@ -377,7 +293,7 @@ impl SessionBuilder {
                 inputs.push(("the sketch", p.as_path()));
             }
             inputs.extend(self.inputs.iter().map(|(n, p)| (n.as_str(), p.as_path())));
-            o.check(sketch.width, sketch.height, &inputs, library.as_deref())?;
+            o.check(width, height, &inputs, library.as_deref())?;
         }
         let progress = self.progress.map(Progress::new).unwrap_or_default();
         Ok(Session {
@@ -394,23 +310,10 @@ impl SessionBuilder {
     }
 }
 
-/// Nearest-neighbour resampling of a sketch (strokes stay pure ridge/valley values).
-fn resample_nearest(g: &Grid<u8>, w: usize, h: usize) -> Grid<u8> {
-    let mut out = Grid::new(w, h, 128u8);
-    for y in 0..h {
-        let sy = ((y as f64 + 0.5) * g.height as f64 / h as f64) as usize;
-        for x in 0..w {
-            let sx = ((x as f64 + 0.5) * g.width as f64 / w as f64) as usize;
-            out.set(x, y, g.get(sx.min(g.width - 1), sy.min(g.height - 1)));
-        }
-    }
-    out
-}
-
 impl Session {
-    /// The sketch the job will follow (after rasterising and resampling).
-    pub fn sketch(&self) -> &Grid<u8> {
-        &self.sketch
+    /// The output's size in cells (the sketch's, or the size asked for).
+    pub fn size(&self) -> (usize, usize) {
+        self.sketch.size()
     }
 
     /// Runs the job: its stages (`job::pipeline`), then, when outputs were given, the
@@ -432,7 +335,7 @@ impl Session {
         let fleet = self.backend.connect().map_err(SessionError::Invalid)?;
         let mut run = StageRunner::new(&pool, &self.progress, &self.cancel);
         let job = JobInputs {
-            sketch: self.sketch.clone(),
+            sketch: &self.sketch,
             sources: &self.sources,
             library: self.library.as_deref(),
             backend: &self.backend,
@@ -464,7 +367,7 @@ impl Session {
     /// Refuses, before any work, a job whose estimated peak memory exceeds its budget.
     /// A library that cannot be read is left for the exemplars stage to report.
     fn check_memory(&self, sketch: &Path) -> Result<(), SessionError> {
-        let (width, height) = (self.sketch.width as u64, self.sketch.height as u64);
+        let (width, height) = (self.sketch.size().0 as u64, self.sketch.size().1 as u64);
         let library_cells: u64 = match self.backend {
             Backend::InProcess { .. } => {
                 let cell = self.settings.cell_size.or_else(|| common_cell_size(&self.sources));
@@ -495,45 +398,10 @@ mod tests {
     use super::*;
 
     #[test]
-    fn strokes_rasterise_to_the_sketch_convention() {
-        let s = StrokeSketch {
-            width: 40,
-            height: 30,
-            strokes: vec![
-                Stroke { pen: Pen::Ridge, width: 3.0, points: vec![[5.0, 10.0], [35.0, 10.0]] },
-                Stroke { pen: Pen::Valley, width: 5.0, points: vec![[20.0, 2.0], [20.0, 28.0]] },
-                Stroke { pen: Pen::Eraser, width: 4.0, points: vec![[10.0, 10.0]] },
-            ],
-        };
-        let g = s.rasterize();
-        assert_eq!(g.get(30, 10), 255, "ridge pen");
-        assert_eq!(g.get(30, 13), 128, "outside the 3-cell pen");
-        assert_eq!(g.get(20, 10), 0, "the later valley stroke crosses the ridge");
-        assert_eq!(g.get(22, 20), 0, "valley pen is 5 cells wide");
-        assert_eq!(g.get(23, 20), 128);
-        assert_eq!(g.get(10, 10), 128, "erased");
-        assert_eq!(g.get(2, 25), 128, "background");
-        let ridge_cells = g.data.iter().filter(|&&v| v == 255).count();
-        // about 30 cells long and 3 wide, less the crossing and the erased dot
-        assert!((60..=100).contains(&ridge_cells), "{ridge_cells}");
-    }
-
-    #[test]
-    fn bad_strokes_and_sizes_are_refused_with_the_reason() {
-        let ok = Stroke { pen: Pen::Ridge, width: 2.0, points: vec![[1.0, 1.0]] };
-        let sk = |w, h, s: Vec<Stroke>| StrokeSketch { width: w, height: h, strokes: s };
-        assert!(sk(8, 64, vec![]).validate(4096).unwrap_err().contains("16..=4096"));
-        assert!(sk(64, 64, vec![Stroke { width: 0.0, ..ok.clone() }]).validate(4096).unwrap_err().contains("pen width"));
-        assert!(sk(64, 64, vec![Stroke { points: vec![], ..ok.clone() }]).validate(4096).unwrap_err().contains("no points"));
-        let nan = Stroke { points: vec![[f32::NAN, 1.0]], ..ok.clone() };
-        assert!(sk(64, 64, vec![nan]).validate(4096).unwrap_err().contains("finite"));
-        assert!(sk(64, 64, vec![ok]).validate(4096).is_ok());
-        let e = Session::builder()
-            .sketch(SketchSource::Strokes(sk(64, 64, vec![])))
-            .build()
-            .err()
-            .map(|e| e.to_string())
-            .unwrap_or_default();
+    fn a_session_without_exemplars_or_with_none_is_refused() {
+        let strokes = StrokeSketch { width: 64, height: 64, strokes: vec![] };
+        let e =
+            Session::builder().sketch(SketchSource::Strokes(strokes)).build().err().map(|e| e.to_string()).unwrap_or_default();
         assert!(e.contains("no exemplars"), "{e}");
         let e = Session::builder()
             .sketch(SketchSource::Image(Grid::new(64, 64, 128)))
@@ -543,16 +411,5 @@ mod tests {
             .map(|e| e.to_string())
             .unwrap_or_default();
         assert!(e.contains("no exemplar sources"), "{e}");
-    }
-
-    #[test]
-    fn nearest_resampling_keeps_stroke_values() {
-        let mut g = Grid::new(32, 32, 128u8);
-        for x in 0..32 {
-            g.set(x, 16, 255);
-        }
-        let r = resample_nearest(&g, 64, 64);
-        assert!(r.data.iter().all(|&v| v == 128 || v == 255));
-        assert_eq!(r.data.iter().filter(|&&v| v == 255).count(), 128, "a one-cell line becomes two cells wide");
     }
 }

@@ -38,7 +38,7 @@ use crate::progress::Stage;
 use crate::stages::exemplars::{self, Backend, Fleet, LoadSettings};
 use crate::stages::feature_placement::{place_features, PlacementSettings};
 use crate::stages::hole_filling::fill_holes;
-use crate::stages::sketch::{self, SketchFeatures};
+use crate::stages::sketch::{self, SketchFeatures, SketchInput};
 use crate::stages::sketch_fit::{fit_to_sketch, FitStats};
 use crate::stages::user_patches::{count_by_kind, user_patches, UserPatch};
 use ridgeline_terrain::exemplar_source::ExemplarSource;
@@ -67,7 +67,7 @@ impl SynthOutput {
 
 /// A job as the pipeline runs it.
 pub struct JobInputs<'a> {
-    pub sketch: Grid<u8>,
+    pub sketch: &'a SketchInput,
     /// The exemplar sources, in order (their index is their source id)…
     pub sources: &'a [Arc<dyn ExemplarSource>],
     /// …and the library they came from, for messages.
@@ -82,7 +82,7 @@ pub struct JobInputs<'a> {
 pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput, SynthReport), SynthError> {
     let set = job.settings;
     let p = set.patch;
-    let (w, h) = (job.sketch.width, job.sketch.height);
+    let (w, h) = job.sketch.size();
     let in_process = job.backend.in_process();
     let load = LoadSettings { patch: p, cell_size: set.cell_size, max_side: set.max_side, cache_dir: set.cache_dir.clone() };
     let what = job.library.map_or_else(|| "(exemplars in memory)".to_string(), |p| p.display().to_string());
@@ -91,7 +91,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
     let shards = &ex.shards;
     let times_before: Vec<ShardTimes> = shards.iter().map(|s| s.times()).collect();
 
-    let sk = run.run(Stage::SketchFeatures, |cx| Ok(cx.install(|| sketch::analyse(&job.sketch, p))))?;
+    let (sk, sketch_image) = run.run(Stage::SketchFeatures, |cx| Ok(cx.install(|| sketch::analyse_input(job.sketch, p))))?;
 
     let ups = run.run(Stage::UserPatches, |_| Ok(user_patches(&sk, p)))?;
 
@@ -157,6 +157,6 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
         peak_rss_bytes: peak_rss_bytes(),
         evaluation: None,
     };
-    let out = SynthOutput { sketch_image: job.sketch, features_only, sketch: sk, user_patches: ups, canvas };
+    let out = SynthOutput { sketch_image, features_only, sketch: sk, user_patches: ups, canvas };
     Ok((out, report))
 }

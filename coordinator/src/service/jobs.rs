@@ -162,7 +162,7 @@ impl JobQueue {
             }
         };
         let (w, h, patch, seed) = size;
-        let (w, h) = if w == 0 || h == 0 { (session.sketch().width, session.sketch().height) } else { (w, h) };
+        let (w, h) = if w == 0 || h == 0 { session.size() } else { (w, h) };
         let status = JobStatus {
             id: id.clone(),
             state: JobState::Queued,
