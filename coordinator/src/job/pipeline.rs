@@ -28,19 +28,18 @@
 //! sketch 1 and its centre-line graphs 2; `keep_features_only` adds 4 for the debug
 //! view of the terrain before hole filling.
 
-use super::report::{peak_rss_bytes, placements_per_exemplar, ShardReport, SynthReport};
+use super::report::{JobResults, SynthReport};
 use super::settings::JobSettings;
 use super::stage_runner::StageRunner;
 use super::SynthError;
 use crate::canvas::Canvas;
-use crate::evaluation::quality::{adherence, seam_score};
 use crate::progress::Stage;
 use crate::stages::exemplars::{self, Backend, Fleet, LoadSettings};
 use crate::stages::feature_placement::{place_features, PlacementSettings};
 use crate::stages::hole_filling::fill_holes;
 use crate::stages::sketch::{self, SketchFeatures, SketchInput};
 use crate::stages::sketch_fit::{fit_to_sketch, FitStats};
-use crate::stages::user_patches::{count_by_kind, user_patches, UserPatch};
+use crate::stages::user_patches::{user_patches, UserPatch};
 use ridgeline_terrain::exemplar_source::ExemplarSource;
 use ridgeline_terrain::grid::{Grid, Heightfield};
 use ridgeline_terrain::shard::{ShardTimes, OUTPUT_LEVEL};
@@ -129,34 +128,19 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
         false => FitStats::default(),
     };
 
-    // the report: what each stage did, the quality figures, each shard's part
-    let exemplars: Vec<_> = {
-        let mut e: Vec<_> = shards.iter().flat_map(|s| s.sources(OUTPUT_LEVEL)).collect();
-        e.sort_by_key(|e| e.source);
-        e
-    };
-    let bounds = sk.bounds();
-    let report = SynthReport {
-        width: w,
-        height: h,
-        patch: p,
-        seed: set.seed,
+    let report = SynthReport::of_job(JobResults {
+        settings: set,
         cell_size_m: ex.cell_size_m,
-        stages: run.timings().to_vec(),
-        user_patches: count_by_kind(&ups),
+        timings: run.timings(),
+        shards,
+        times_before: &times_before,
+        sketch: &sk,
+        user_patches: &ups,
+        canvas: &canvas,
         placement,
         filling,
-        cache_hits: exemplars.iter().filter(|e| e.cache_hit).count(),
-        skipped_exemplars: shards.iter().flat_map(|s| s.skipped()).collect(),
-        placements_per_exemplar: placements_per_exemplar(&canvas, &exemplars),
-        exemplars,
         sketch_fit,
-        adherence: sk.lines.map(|kind, g| adherence(&canvas.heights, g, kind, p as f32 / 4.0, 4, 8, &bounds)),
-        seams: seam_score(&canvas.heights, &canvas.provenance.data),
-        shards: ShardReport::of_shards(shards, &times_before),
-        peak_rss_bytes: peak_rss_bytes(),
-        evaluation: None,
-    };
+    });
     let out = SynthOutput { sketch_image, features_only, sketch: sk, user_patches: ups, canvas };
     Ok((out, report))
 }

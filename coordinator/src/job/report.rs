@@ -3,11 +3,14 @@
 //! object, field names as before), the sources used and skipped, the quality figures,
 //! and what each shard did.
 
+use super::settings::JobSettings;
 use crate::canvas::Canvas;
-use crate::evaluation::quality::{Adherence, SeamScore};
+use crate::evaluation::quality::{adherence, seam_score, Adherence, SeamScore};
 use crate::stages::feature_placement::PlacementStats;
 use crate::stages::hole_filling::FillStats;
+use crate::stages::sketch::SketchFeatures;
 use crate::stages::sketch_fit::FitStats;
+use crate::stages::user_patches::{count_by_kind, UserPatch};
 use ridgeline_terrain::shard::{ShardScorer, ShardTimes, SkippedExemplar, SourceInfo, OUTPUT_LEVEL};
 use ridgeline_terrain::PerKind;
 use std::collections::BTreeMap;
@@ -60,6 +63,56 @@ pub struct SynthReport {
     /// see `evaluation`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub evaluation: Option<crate::evaluation::Evaluation>,
+}
+
+/// What the stages of one job made and said, for its report.
+pub struct JobResults<'a> {
+    pub settings: &'a JobSettings,
+    pub cell_size_m: Option<f32>,
+    pub timings: &'a [StageTiming],
+    pub shards: &'a [Arc<dyn ShardScorer>],
+    /// Each shard's times when the job started.
+    pub times_before: &'a [ShardTimes],
+    pub sketch: &'a SketchFeatures,
+    pub user_patches: &'a [UserPatch],
+    pub canvas: &'a Canvas,
+    pub placement: PlacementStats,
+    pub filling: FillStats,
+    pub sketch_fit: FitStats,
+}
+
+impl SynthReport {
+    /// The report of a job: what each stage did, the quality figures of the result
+    /// (adherence at patch/4, every 4th centre-line cell, 8 cells from the border; the
+    /// seam score), and each shard's part.
+    pub fn of_job(r: JobResults) -> SynthReport {
+        let (set, canvas, sk) = (r.settings, r.canvas, r.sketch);
+        let mut exemplars: Vec<SourceInfo> = r.shards.iter().flat_map(|s| s.sources(OUTPUT_LEVEL)).collect();
+        exemplars.sort_by_key(|e| e.source);
+        let bounds = sk.bounds();
+        let (width, height) = canvas.full_size();
+        SynthReport {
+            width,
+            height,
+            patch: set.patch,
+            seed: set.seed,
+            cell_size_m: r.cell_size_m,
+            stages: r.timings.to_vec(),
+            user_patches: count_by_kind(r.user_patches),
+            placement: r.placement,
+            filling: r.filling,
+            cache_hits: exemplars.iter().filter(|e| e.cache_hit).count(),
+            skipped_exemplars: r.shards.iter().flat_map(|s| s.skipped()).collect(),
+            placements_per_exemplar: placements_per_exemplar(canvas, &exemplars),
+            exemplars,
+            sketch_fit: r.sketch_fit,
+            adherence: sk.lines.map(|kind, g| adherence(&canvas.heights, g, kind, set.patch as f32 / 4.0, 4, 8, &bounds)),
+            seams: seam_score(&canvas.heights, &canvas.provenance.data),
+            shards: ShardReport::of_shards(r.shards, r.times_before),
+            peak_rss_bytes: peak_rss_bytes(),
+            evaluation: None,
+        }
+    }
 }
 
 /// One shard's part in a job.
