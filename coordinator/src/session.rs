@@ -1,8 +1,8 @@
 //! The library API: what the command line, the service and a studio's own tools call.
 //! A [`SessionBuilder`] gathers a job — the sketch (a file, an image in memory or
-//! strokes), the exemplars (a folder, a manifest, a subset of either, or heightfields
-//! in memory), the backend (in-process shards or a gRPC fleet), the settings and the
-//! output files — and [`SessionBuilder::build`] validates all of it once, before any
+//! strokes), the exemplars (a folder, a manifest, a subset of either, or sources of any
+//! kind behind [`ExemplarSource`]: files, heights in memory, generators), the backend
+//! (in-process shards or a gRPC fleet), the settings and the output files — and [`SessionBuilder::build`] validates all of it once, before any
 //! work: a bad sketch, an unknown exemplar or an output that would overwrite an input
 //! is refused there with the file and the problem named. [`Session::run`] then runs
 //! the [`crate::job::pipeline`], reports through a [`JobProgress`], stops at a
@@ -48,7 +48,8 @@ pub enum SketchSource {
     File(PathBuf),
     /// A sketch already in memory, one byte per cell.
     Image(Grid<u8>),
-    /// Strokes drawn with pens, rasterised onto a blank sketch.
+    /// Strokes drawn with pens: kept as typed strokes (with their per-point widths and
+    /// elevations), rasterised for their centre lines.
     Strokes(StrokeSketch),
 }
 
