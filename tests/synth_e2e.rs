@@ -298,3 +298,76 @@ fn loading_repairs_the_void_spike_of_the_andes_crop_and_leaves_real_relief_alone
     }
     assert_eq!(changed_dems, vec!["andes-chile.png".to_string()], "only the crop with a void spike changes");
 }
+
+/// A sketch drawn here (not one of the shared ones): two curved ridges with a valley
+/// between them that runs out of the frame, a short ridge spur, on 384².
+fn drawn_form_sketch(dir: &std::path::Path) -> std::path::PathBuf {
+    let mut img = image::GrayImage::from_pixel(384, 384, image::Luma([128u8]));
+    let curve = |y0: f32, amp: f32, phase: f32| -> Vec<(f32, f32)> {
+        (0..=24).map(|k| (20.0 + 14.0 * k as f32, y0 + amp * (k as f32 / 4.0 + phase).sin())).collect()
+    };
+    stroke(&mut img, &curve(100.0, 18.0, 0.0), 5.0, 255);
+    stroke(&mut img, &curve(290.0, 14.0, 1.0), 3.0, 255);
+    stroke(&mut img, &curve(195.0, 10.0, 0.5)[..22], 3.0, 0);
+    stroke(&mut img, &[(200.0, 110.0), (230.0, 150.0)], 3.0, 255);
+    let path = dir.join("form.png");
+    img.save(&path).unwrap();
+    path
+}
+
+/// Eight of the shared DEMs: the rest are held out.
+const FORM_LIBRARY: [&str; 8] =
+    ["alaska", "colorado", "himalaya-everest", "karakoram", "norway", "patagonia", "pyrenees", "appalachians"];
+
+fn form_run(dir: &std::path::Path, range: Option<[f32; 2]>) -> Option<ridgeline::evaluation::Evaluation> {
+    let data = shared_data()?;
+    let only = FORM_LIBRARY.iter().map(|s| s.to_string()).collect();
+    let out = session(&drawn_form_sketch(dir), &data.join("dems"), &dir.join("cache"))
+        .exemplars(ridgeline::stages::exemplars::Exemplars::Library { path: data.join("dems"), only: Some(only) })
+        .patch_size(32)
+        .threads(2)
+        .elevation_range(range)
+        .outputs(ridgeline::outputs::OutputFiles {
+            terrain: dir.join("t.tif"),
+            also: vec![],
+            tiles: None,
+            preview: None,
+            report: Some(dir.join("report.json")),
+            debug_dir: None,
+        })
+        .build()
+        .and_then(|s| s.run())
+        .expect("synthesis");
+    out.report.evaluation.clone()
+}
+
+#[test]
+fn ridges_stand_high_valleys_drain_and_heights_stay_in_the_sources_range() {
+    let dir = temp_dir("form");
+    let Some(e) = form_run(&dir, None) else { return };
+    let r = &e.ridge_above_valley;
+    let (near, median) = (r.above_nearest_valley.unwrap(), r.above_valley_median.unwrap());
+    assert!(
+        near >= 0.95 && median >= 0.95,
+        "ridge cells above the nearest valley {near:.3}, above the valleys' median {median:.3}"
+    );
+    let ([lo, hi], [slo, shi]) = (e.elevation_range, e.source_elevation_range);
+    assert!(lo >= slo && hi <= shi, "output {lo}..{hi} m against the sources' {slo}..{shi} m");
+    let (sink, src) = (e.drainage.sink_share, e.source_drainage.sink_share);
+    assert!(sink <= 1.5 * src + 0.01, "sink area {:.2}% against the sources' {:.2}%", 100.0 * sink, 100.0 * src);
+    let (flat, src_flat) = (e.landforms.fractions[0], e.source_landforms.fractions[0]);
+    assert!(flat <= src_flat + 0.005, "flat landforms {:.2}% against the sources' {:.2}%", 100.0 * flat, 100.0 * src_flat);
+    for (kind, a) in e.adherence.iter() {
+        let a = a.expect("the sketch has lines of both kinds");
+        assert!(a >= 0.95, "{kind:?} adherence {a:.3}");
+    }
+}
+
+#[test]
+fn an_elevation_range_asked_for_is_the_range_of_the_output() {
+    let dir = temp_dir("form-range");
+    let Some(e) = form_run(&dir, Some([250.0, 2750.0])) else { return };
+    let [lo, hi] = e.elevation_range;
+    assert!((lo - 250.0).abs() < 1.0 && (hi - 2750.0).abs() < 1.0, "output {lo}..{hi} m, asked 250..2750 m");
+    assert!(e.ridge_above_valley.above_valley_median.unwrap() >= 0.95, "the stretch keeps ridges above valleys");
+}

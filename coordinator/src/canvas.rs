@@ -103,6 +103,10 @@ pub struct Canvas {
     /// elevations (a fixed reference, so the result does not depend on which other
     /// patches happen to be placed already).
     pub base_level: Option<f32>,
+    /// The large-scale form gives every patch its level (`stages::large_scale`): a
+    /// patch placed with nothing to attach to keeps the level it comes with (its
+    /// plane replaced by the target surface) instead of taking `base_level`.
+    pub levels_given: bool,
     /// Global coordinates of the grid's first cell, and the whole output's size.
     origin: (usize, usize),
     full: (usize, usize),
@@ -124,6 +128,7 @@ impl Canvas {
             patch,
             empty: width * height,
             base_level: None,
+            levels_given: false,
             origin: (0, 0),
             full: (width, height),
             context: Vec::new(),
@@ -284,6 +289,7 @@ impl Canvas {
             patch: self.patch,
             empty,
             base_level: self.base_level,
+            levels_given: self.levels_given,
             origin: (r.x0, r.y0),
             full: self.full,
             context: Vec::new(),

@@ -187,8 +187,16 @@ fn serve_metrics(addr: Option<std::net::SocketAddr>) -> Result<()> {
 fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
     use ridgeline::session::{Exemplars, Session, SketchSource};
     let backend = backend(worker_urls(&a)?, a.gpu, &a.token, &a.tls_ca, a.call_timeout_s, JOB_ID.get().cloned());
+    let sketch = if a.sketch.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")) {
+        SketchSource::Strokes(read_stroke_sketch(&a.sketch, a.max_side)?)
+    } else {
+        SketchSource::File(a.sketch.clone())
+    };
+    let range = a.elevation_range.or(a.sea_level.zip(a.relief).map(|(s, r)| [s, s + r]));
     let mut builder = Session::builder()
-        .sketch(SketchSource::File(a.sketch.clone()))
+        .sketch(sketch)
+        .elevation_range(range)
+        .large_scale(!a.no_large_scale)
         .exemplars(Exemplars::library(&a.exemplars))
         .backend(backend)
         .patch_size(a.patch_size)
@@ -269,6 +277,22 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
         eprintln!("note: skipped exemplar {}", s.reason);
     }
     Ok(())
+}
+
+/// A vector sketch file (`--sketch sketch.json`), read with a size limit.
+/// A vector sketch (JSON: width, height, strokes with pen, width and optional per-point
+/// widths and elevations), read and checked, every problem naming the file.
+fn read_stroke_sketch(path: &Path, max_side: u32) -> Result<ridgeline::session::StrokeSketch> {
+    const MAX_BYTES: u64 = 64 << 20;
+    let len = std::fs::metadata(path).with_context(|| format!("{}: cannot read the sketch", path.display()))?.len();
+    if len > MAX_BYTES {
+        bail!("{}: a vector sketch of {len} bytes; at most {MAX_BYTES}", path.display());
+    }
+    let text = std::fs::read_to_string(path).with_context(|| format!("{}: cannot read the sketch", path.display()))?;
+    let sketch: ridgeline::session::StrokeSketch = serde_json::from_str(&text)
+        .with_context(|| format!("{}: not a vector sketch (width, height, strokes)", path.display()))?;
+    sketch.validate(max_side).map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))?;
+    Ok(sketch)
 }
 
 fn fetch(a: FetchArgs) -> Result<()> {

@@ -15,6 +15,11 @@ pub enum Stage {
     Exemplars,
     /// Sketch analysis: centre lines and the guide field.
     SketchFeatures,
+    /// The large-scale target from the strokes.
+    LargeScale,
+    /// On large outputs, the whole synthesis at a coarser level first; progress
+    /// counts the coarse level's empty cells filled.
+    CoarseLevel,
     /// User patches along the sketch's features.
     UserPatches,
     /// Rounds 1 and 2 of patch matching; progress counts user patches.
@@ -23,6 +28,8 @@ pub enum Stage {
     HoleFilling,
     /// The final deformation that puts crests on ridge lines and floors on valleys.
     SketchFit,
+    /// Depressions breached so the valleys drain, and the elevation range held.
+    Conditioning,
     /// Realism figures against the sources (when a report is asked for).
     Evaluation,
     /// Writing the outputs.
@@ -31,13 +38,16 @@ pub enum Stage {
 
 impl Stage {
     /// Every stage, in order.
-    pub const ALL: [Stage; 8] = [
+    pub const ALL: [Stage; 11] = [
         Stage::Exemplars,
         Stage::SketchFeatures,
+        Stage::LargeScale,
+        Stage::CoarseLevel,
         Stage::UserPatches,
         Stage::FeaturePlacement,
         Stage::HoleFilling,
         Stage::SketchFit,
+        Stage::Conditioning,
         Stage::Evaluation,
         Stage::Write,
     ];
@@ -47,10 +57,13 @@ impl Stage {
         match self {
             Stage::Exemplars => "exemplars",
             Stage::SketchFeatures => "sketch_features",
+            Stage::LargeScale => "large_scale",
+            Stage::CoarseLevel => "coarse_level",
             Stage::UserPatches => "user_patches",
             Stage::FeaturePlacement => "feature_placement",
             Stage::HoleFilling => "hole_filling",
             Stage::SketchFit => "sketch_fit",
+            Stage::Conditioning => "conditioning",
             Stage::Evaluation => "evaluation",
             Stage::Write => "write",
         }
@@ -61,10 +74,13 @@ impl Stage {
         match self {
             Stage::Exemplars => "exemplars",
             Stage::SketchFeatures => "sketch analysis",
+            Stage::LargeScale => "large-scale form",
+            Stage::CoarseLevel => "coarse level",
             Stage::UserPatches => "user patches",
             Stage::FeaturePlacement => "feature placement",
             Stage::HoleFilling => "hole filling",
             Stage::SketchFit => "sketch fit",
+            Stage::Conditioning => "drainage and range",
             Stage::Evaluation => "evaluation",
             Stage::Write => "writing",
         }

@@ -202,6 +202,18 @@ impl SessionBuilder {
         self.cancel = c;
         self
     }
+    /// Shape the terrain coarse to fine (default on): a large-scale target from the
+    /// strokes that every patch builds on, depressions breached, the range held.
+    pub fn large_scale(mut self, on: bool) -> Self {
+        self.settings.large_scale = on;
+        self
+    }
+    /// The output's elevation range in metres (`None`, the default: within its
+    /// sources'); with no stroke elevations the terrain is stretched to fill it.
+    pub fn elevation_range(mut self, range: Option<[f32; 2]>) -> Self {
+        self.settings.elevation_range = range;
+        self
+    }
     /// Largest round-2 batch of non-interacting user patches (0, the default: no
     /// limit; 1: one at a time). The output does not depend on it.
     pub fn max_batch(mut self, n: usize) -> Self {

@@ -276,6 +276,10 @@ fn colliding_outputs_and_bad_settings_are_refused_before_any_work() {
         (vec!["--out".into(), out_tif.clone(), "--cell-size".into(), "nan".into()], "cell size"),
         (vec!["--out".into(), out_tif.clone(), "--cell-size".into(), "0".into()], "cell size"),
         (vec!["--out".into(), out_tif.clone(), "--threads".into(), "1000".into()], "threads"),
+        (
+            vec!["--out".into(), out_tif.clone(), "--sea-level".into(), "100".into(), "--relief".into(), "-50".into()],
+            "elevation range",
+        ),
     ];
     for (extra, want) in cases {
         let o = bin().args(["synth", "--sketch", &sk, "--exemplars", &libs, "--no-cache"]).args(&extra).output().unwrap();
@@ -452,4 +456,75 @@ fn a_job_over_its_memory_budget_is_refused_before_any_work_saying_what_it_needs(
             .arg(outs.join("t.png")),
     );
     assert!(!ok && err.contains("'lots'"), "{err}");
+}
+
+#[test]
+fn vector_sketches_and_elevation_ranges_are_checked_and_honoured() {
+    let d = tmp("vector");
+    let out = d.join("t.tif");
+    let run = |sketch: &Path, extra: &[&str]| {
+        let o = bin()
+            .args(["synth", "--sketch"])
+            .arg(sketch)
+            .args(["--exemplars", "lib-not-read", "--no-cache", "--out"])
+            .arg(&out)
+            .args(extra)
+            .output()
+            .unwrap();
+        (o.status.code(), String::from_utf8_lossy(&o.stderr).into_owned())
+    };
+    // hostile vector sketches: named, with the problem, before any work
+    let bad = [
+        ("garbage.json", "{ not json".to_string(), "not a vector sketch"),
+        (
+            "counts.json",
+            r#"{"width": 128, "height": 128, "strokes": [{"pen": "ridge", "width": 3, "points": [[10, 10], [100, 100]], "elevations": [1200]}]}"#.into(),
+            "1 elevations for 2 points",
+        ),
+        (
+            "height.json",
+            r#"{"width": 128, "height": 128, "strokes": [{"pen": "valley", "width": 3, "points": [[10, 10], [100, 100]], "elevations": [1e9, 0]}]}"#.into(),
+            "elevation",
+        ),
+        ("size.json", r#"{"width": 4, "height": 128, "strokes": []}"#.into(), "each side"),
+    ];
+    for (name, text, want) in bad {
+        let p = d.join(name);
+        std::fs::write(&p, text).unwrap();
+        let (code, err) = run(&p, &[]);
+        assert_eq!(code, Some(1), "{name}: {err}");
+        assert!(err.contains(name) && err.contains(want), "{name}: expected the file and '{want}' in: {err}");
+        assert!(!err.contains("lib-not-read"), "{name}: the library was read before the sketch was checked: {err}");
+    }
+    // a range given the wrong way round is refused by the parser, naming it
+    let p = d.join("counts.json");
+    let (code, err) = run(&p, &["--elevation-range", "3000:1000"]);
+    assert!(code != Some(0) && err.contains("3000:1000") && err.contains("lower height first"), "{err}");
+    assert!(!out.exists(), "nothing was written");
+
+    // a good vector sketch with a range asked for (below sea level at its foot, so the
+    // value starts with a hyphen): the output spans exactly that range
+    let Some(data) = shared() else { return };
+    let sketch = d.join("good.json");
+    std::fs::write(
+        &sketch,
+        r#"{"width": 160, "height": 128, "strokes": [
+            {"pen": "ridge", "width": 4, "points": [[15, 40], [80, 30], [145, 45]]},
+            {"pen": "valley", "width": 3, "points": [[10, 95], [150, 90]], "widths": [3, 5]}]}"#,
+    )
+    .unwrap();
+    let o = bin()
+        .args(["synth", "--sketch"])
+        .arg(&sketch)
+        .arg("--exemplars")
+        .arg(small_library(&d, &data))
+        .args(["--patch-size", "32", "--no-cache", "--elevation-range", "-200:1800", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let h = ridgeline_terrain::outputs::read_heightfield(&out, 8192).unwrap();
+    assert_eq!((h.width, h.height), (160, 128));
+    let (lo, hi) = h.finite_range().unwrap();
+    assert!((lo + 200.0).abs() < 0.5 && (hi - 1800.0).abs() < 0.5, "{lo}..{hi}");
 }

@@ -56,6 +56,13 @@ for (const b of document.querySelectorAll('button.pen')) {
   });
 }
 $('brush').addEventListener('input', (e) => { pad.width = Number(e.target.value); $('brush-out').value = e.target.value; });
+// the pens' elevation: strokes drawn while it is set carry it at every point
+const pinElevation = () => {
+  $('elevation').disabled = !$('pin-elevation').checked;
+  pad.elevation = $('pin-elevation').checked ? Number($('elevation').value) : null;
+};
+$('pin-elevation').addEventListener('change', pinElevation);
+$('elevation').addEventListener('input', pinElevation);
 $('undo').addEventListener('click', () => pad.undo());
 $('redo').addEventListener('click', () => pad.redo());
 $('clear').addEventListener('click', () => pad.clear());
@@ -230,6 +237,9 @@ $('submit').addEventListener('click', async () => {
   const chosen = checkboxes().filter((c) => c.checked).map((c) => c.value);
   if (!chosen.length) { showError('pick at least one exemplar'); return; }
   const tiles = Number($('tiles').value);
+  const [lo, hi] = [$('range-lo').value, $('range-hi').value];
+  if ((lo === '') !== (hi === '')) { showError('give both the lowest and the highest elevation, or neither'); return; }
+  if (lo !== '' && Number(hi) <= Number(lo)) { showError('the highest elevation must be above the lowest'); return; }
   const body = {
     sketch: { strokes: pad.toJSON() },
     exemplars: chosen.length === checkboxes().length ? null : chosen,
@@ -237,6 +247,7 @@ $('submit').addEventListener('click', async () => {
     patch_size: Number($('patch').value),
     tiles: tiles > 0 ? tiles : null,
     debug: $('debug').checked,
+    elevation_range: lo === '' ? null : [Number(lo), Number(hi)],
   };
   $('submit').disabled = true;
   $('result').hidden = true;

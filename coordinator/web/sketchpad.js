@@ -1,7 +1,8 @@
 // The sketch canvas: strokes with a ridge pen, a valley pen and an eraser, undo and
 // redo, an optional background image to trace over. The canvas holds one pixel per
 // output cell; strokes are kept as polylines in cells and sent to the service as
-// such (it rasterises them: background 128, ridges 255, valleys 0).
+// such: pen, width, and, when the elevation control is set, the height at every point
+// (the service keeps them as typed strokes; see `stages/sketch`).
 
 export class SketchPad {
   constructor(canvas) {
@@ -11,6 +12,8 @@ export class SketchPad {
     this.redoStack = [];
     this.pen = 'ridge';
     this.width = 4;
+    // metres, or null: strokes then take the default profile
+    this.elevation = null;
     this.background = null;
     this.backgroundAlpha = 0.6;
     this.current = null;
@@ -43,7 +46,7 @@ export class SketchPad {
 
   down(e) {
     this.canvas.setPointerCapture?.(e.pointerId);
-    this.current = { pen: this.pen, width: this.width, points: [this.cell(e)] };
+    this.current = { pen: this.pen, width: this.width, elevation: this.pen === 'eraser' ? null : this.elevation, points: [this.cell(e)] };
     this.strokes.push(this.current);
     this.redoStack = [];
     this.render();
@@ -126,7 +129,11 @@ export class SketchPad {
     return {
       width: this.canvas.width,
       height: this.canvas.height,
-      strokes: this.strokes.map((s) => ({ pen: s.pen, width: s.width, points: s.points })),
+      strokes: this.strokes.map((s) => {
+        const out = { pen: s.pen, width: s.width, points: s.points };
+        if (s.elevation !== null && s.elevation !== undefined) out.elevations = s.points.map(() => s.elevation);
+        return out;
+      }),
     };
   }
 }

@@ -5,6 +5,7 @@
 use crate::v1;
 use ridgeline_terrain::costs::NOISE_LEVELS;
 use ridgeline_terrain::feature_kind::{FeatureKind, PerKind};
+use ridgeline_terrain::height_stats::HeightStats;
 use ridgeline_terrain::patch_geometry::{ProfilePath, Variant};
 use ridgeline_terrain::shard::{
     BestSet, CandidateRef, FillBestSet, FillCandidate, FillQuery, LevelSpec, ScoredCandidate, SkippedExemplar, SourceInfo,
@@ -190,6 +191,15 @@ pub fn source_to_wire(s: &SourceInfo) -> v1::SourceInfo {
         featureless: s.featureless as u32,
         cache_hit: s.cache_hit,
         featureless_relief: s.featureless_relief.clone(),
+        heights: Some(v1::HeightStats {
+            min: s.heights.min,
+            p05: s.heights.p05,
+            median: s.heights.median,
+            p95: s.heights.p95,
+            max: s.heights.max,
+            relief_side: s.heights.relief.iter().map(|r| r.0).collect(),
+            relief_m: s.heights.relief.iter().map(|r| r.1).collect(),
+        }),
     }
 }
 
@@ -206,6 +216,18 @@ pub fn source_from_wire(s: v1::SourceInfo) -> Result<SourceInfo, String> {
         featureless: s.featureless as usize,
         cache_hit: s.cache_hit,
         featureless_relief: s.featureless_relief,
+        heights: match s.heights {
+            Some(h) if h.relief_side.len() == h.relief_m.len() => HeightStats {
+                min: h.min,
+                p05: h.p05,
+                median: h.median,
+                p95: h.p95,
+                max: h.max,
+                relief: h.relief_side.into_iter().zip(h.relief_m).collect(),
+            },
+            Some(_) => return Err(format!("source {}: relief sides and values differ in count", s.source)),
+            None => HeightStats::default(),
+        },
     })
 }
 
@@ -275,6 +297,14 @@ mod tests {
             featureless: 3,
             cache_hit: true,
             featureless_relief: vec![1.0, 2.0, 3.0],
+            heights: HeightStats {
+                min: 10.0,
+                p05: 20.0,
+                median: 300.0,
+                p95: 900.0,
+                max: 1000.0,
+                relief: vec![(8, 5.0), (16, 12.0)],
+            },
         };
         assert_eq!(source_from_wire(source_to_wire(&s)).unwrap(), s);
         let mut w = source_to_wire(&s);

@@ -13,6 +13,7 @@ pub mod feature_extraction;
 pub mod feature_kind;
 pub mod generators;
 pub mod grid;
+pub mod height_stats;
 pub mod io;
 pub mod library;
 pub mod outputs;

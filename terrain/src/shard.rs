@@ -128,6 +128,9 @@ pub struct SourceInfo {
     /// coordinator can normalise fill costs without holding the pool (not in reports).
     #[serde(default, skip_serializing)]
     pub featureless_relief: Vec<f32>,
+    /// Its elevations at the level's cell size: quantiles and relief by scale.
+    #[serde(default)]
+    pub heights: crate::height_stats::HeightStats,
 }
 
 /// An exemplar a shard could not use, and why.

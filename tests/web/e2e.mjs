@@ -1,7 +1,10 @@
 // The web page end to end in a real browser: headless Chromium (Debian's, driven by
 // playwright-core) opens `ridgeline serve`, draws a ridge and a valley on the sketch
-// canvas with the mouse, submits, waits for the job, checks that the 3D view rendered
-// (non-blank pixels), downloads the RAW16 terrain and checks its size and that the
+// canvas with the mouse (the ridge with the pen's elevation set, in an elevation range
+// asked for), submits, checks that the request carries the ridge's elevation at every
+// point and the range, waits for the job, checks that the 3D view rendered (non-blank
+// pixels), downloads the RAW16 terrain and checks its size, that it stays in the
+// range, that the ridge stands near the elevation it was drawn at and that the
 // terrain is higher under the drawn ridge than beside it. Saves a screenshot.
 //
 // usage: node tests/web/e2e.mjs [RIDGELINE_BINARY] [SHARED_DATA] [SCREENSHOT]
@@ -73,8 +76,16 @@ try {
     await page.mouse.up();
   }
   const ridgeY = 0.32 * SIZE, valleyY = 0.72 * SIZE;
+  // the ridge is drawn with its elevation set, in a range the job asks for
+  const RIDGE_M = 3600, RANGE = [0, 4500];
   await page.click('button[data-pen=ridge]');
+  await page.check('#pin-elevation');
+  await page.fill('#elevation', String(RIDGE_M));
+  await page.dispatchEvent('#elevation', 'input');
   await stroke([[0.1 * SIZE, ridgeY], [0.5 * SIZE, ridgeY], [0.9 * SIZE, ridgeY]]);
+  await page.uncheck('#pin-elevation');
+  await page.fill('#range-lo', String(RANGE[0]));
+  await page.fill('#range-hi', String(RANGE[1]));
   await page.click('button[data-pen=valley]');
   await stroke([[0.1 * SIZE, valleyY], [0.9 * SIZE, valleyY]]);
   // undo and redo leave the same drawing
@@ -83,7 +94,14 @@ try {
   const strokes = await page.evaluate(() => document.querySelectorAll('#sketch').length);
   if (strokes !== 1) fail('no sketch canvas');
 
+  const posted = page.waitForRequest((r) => r.url().endsWith('/api/jobs') && r.method() === 'POST');
   await page.click('#submit');
+  const sent = JSON.parse((await posted).postData());
+  const [ridgeSent, valleySent] = sent.sketch.strokes.strokes;
+  if (!ridgeSent.elevations || ridgeSent.elevations.length !== ridgeSent.points.length || ridgeSent.elevations.some((e) => e !== RIDGE_M))
+    fail(`the ridge was sent without its elevation at every point: ${JSON.stringify(ridgeSent).slice(0, 200)}`);
+  if (valleySent.elevations) fail('the valley, drawn with the elevation unset, was sent with elevations');
+  if (JSON.stringify(sent.elevation_range) !== JSON.stringify(RANGE)) fail(`elevation_range sent: ${JSON.stringify(sent.elevation_range)}`);
   await page.waitForSelector('#job-state[data-state=done], #job-state[data-state=failed]', { timeout: 300000 });
   const state = await page.getAttribute('#job-state', 'data-state');
   if (state !== 'done') fail(`job ended ${state}: ${await page.textContent('#error')}`);
@@ -115,7 +133,19 @@ try {
   await download.saveAs(file);
   const raw = fs.readFileSync(file);
   if (raw.length !== SIZE * SIZE * 2) fail(`terrain.r16 has ${raw.length} bytes, want ${SIZE * SIZE * 2}`);
+  // the r16's sidecar maps samples to metres
+  const href = await page.getAttribute('#files a[download="terrain.r16"]', 'href');
+  const side = await page.evaluate(async (u) => (await fetch(u)).json(), href.replace('terrain.r16', 'terrain.json'));
+  console.log(`elevations ${side.min_elevation.toFixed(0)}..${side.max_elevation.toFixed(0)} m, asked ${RANGE[0]}..${RANGE[1]}`);
+  if (side.min_elevation < RANGE[0] - 1 || side.max_elevation > RANGE[1] + 1) fail('the terrain leaves the elevation range asked for');
   const v = (x, y) => raw.readUInt16LE(2 * (Math.round(y) * SIZE + Math.round(x)));
+  const metres = (x, y) => side.min_elevation + v(x, y) * side.scale;
+  const crest = [];
+  for (let x = 0.2 * SIZE; x < 0.8 * SIZE; x += 4) crest.push(metres(x, ridgeY));
+  crest.sort((a, b) => a - b);
+  const crestM = crest[crest.length >> 1];
+  console.log(`ridge crest median ${crestM.toFixed(0)} m, drawn at ${RIDGE_M} m`);
+  if (Math.abs(crestM - RIDGE_M) > 600) fail(`the ridge drawn at ${RIDGE_M} m stands at ${crestM.toFixed(0)} m`);
   let on = 0, off = 0;
   for (let x = 0.2 * SIZE; x < 0.8 * SIZE; x += 4) {
     on += v(x, ridgeY);

@@ -43,6 +43,8 @@ pub struct Source {
     /// Floor of a profile's range when normalising it (metres).
     pub min_range: f32,
     pub cache_hit: bool,
+    /// Its elevations: quantiles and relief by scale.
+    pub stats: ridgeline_terrain::height_stats::HeightStats,
 }
 
 /// Why an exemplar could not be used.
@@ -143,5 +145,6 @@ fn prepare_source(
     if counts.total() == 0 && featureless.is_empty() {
         return Err(LoadError::Unusable { what: src.location() });
     }
-    Ok(Source { id, name: src.name(), heights, nodes, featureless, min_range: (0.02 * rel).max(1.0), cache_hit })
+    let stats = ridgeline_terrain::height_stats::HeightStats::of(&heights);
+    Ok(Source { id, name: src.name(), heights, nodes, featureless, min_range: (0.02 * rel).max(1.0), cache_hit, stats })
 }

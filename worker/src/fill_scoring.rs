@@ -212,6 +212,7 @@ mod tests {
                 .collect(),
             min_range: 1.0,
             cache_hit: false,
+            stats: Default::default(),
         }
     }
 

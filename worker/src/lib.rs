@@ -148,6 +148,7 @@ impl ShardScorer for InProcessShard {
                 featureless: s.featureless.len(),
                 cache_hit: s.cache_hit,
                 featureless_relief: s.featureless.iter().map(|f| ridgeline_terrain::costs::finite_std(&f.pixels)).collect(),
+                heights: s.stats.clone(),
             })
             .collect()
     }

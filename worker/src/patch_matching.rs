@@ -345,6 +345,7 @@ pub(crate) mod tests {
             featureless: Vec::new(),
             min_range,
             cache_hit: false,
+            stats: Default::default(),
         }
     }
 

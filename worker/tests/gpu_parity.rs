@@ -69,6 +69,7 @@ fn source(id: u32, w: usize, h: usize, base: f32, flat: bool, rng: &mut Lcg) -> 
         featureless: Vec::new(),
         min_range: if flat { 1.0 } else { 8.0 },
         cache_hit: false,
+        stats: Default::default(),
     }
 }
 
@@ -183,6 +184,7 @@ fn pool_source(id: u32, n: usize, rng: &mut Lcg) -> Source {
         featureless,
         min_range: 1.0,
         cache_hit: false,
+        stats: Default::default(),
     }
 }
 

@@ -135,13 +135,30 @@ pub struct WorkerArgs {
 
 #[derive(clap::Args)]
 pub struct SynthArgs {
-    /// Sketch PNG: background 128, white strokes = ridges, black strokes = valleys.
+    /// Sketch: a PNG (background 128, white strokes = ridges, black strokes = valleys)
+    /// or a vector sketch (.json: {"width", "height", "strokes": [{"pen", "width",
+    /// "points", "widths"?, "elevations"?}]}).
     #[arg(long)]
     pub sketch: PathBuf,
     /// Exemplar library: a folder of DEMs (.png, .tif, .hgt, .asc; a dems.csv may give
     /// cell_size_m and vertical_unit per file) or a manifest (.toml or .json).
     #[arg(long)]
     pub exemplars: PathBuf,
+    /// The output's elevation range in metres, MIN:MAX (default: within its sources'
+    /// range). Without stroke elevations the terrain is stretched to fill it.
+    #[arg(long, value_parser = parse_range, allow_hyphen_values = true, conflicts_with_all = ["sea_level", "relief"])]
+    pub elevation_range: Option<[f32; 2]>,
+    /// The output's lowest level, metres (with --relief: the range sea level .. sea level + relief).
+    #[arg(long, requires = "relief", allow_hyphen_values = true)]
+    pub sea_level: Option<f32>,
+    /// The output's relief above --sea-level, metres.
+    #[arg(long, requires = "sea_level", allow_hyphen_values = true)]
+    pub relief: Option<f32>,
+    /// Leave out the coarse-to-fine form: no large-scale target from the strokes, no
+    /// breaching of depressions, no elevation range held (each patch keeps the level it
+    /// matches to, as before).
+    #[arg(long)]
+    pub no_large_scale: bool,
     /// Output heightfield: .tif (32-bit float metres), .png (16-bit) or .r16 (raw 16-bit
     /// little-endian); 16-bit outputs get a .json sidecar mapping samples to metres.
     #[arg(long)]
@@ -271,4 +288,15 @@ pub struct EvaluateArgs {
     /// Print the figures as JSON instead of a table.
     #[arg(long)]
     pub json: bool,
+}
+
+/// `MIN:MAX` in metres, the lower first.
+fn parse_range(s: &str) -> Result<[f32; 2], String> {
+    let (a, b) = s.split_once(':').ok_or_else(|| format!("'{s}': give MIN:MAX in metres, such as 0:3500"))?;
+    let num = |v: &str| v.trim().parse::<f32>().map_err(|_| format!("'{v}' in '{s}' is not a number of metres"));
+    let (lo, hi) = (num(a)?, num(b)?);
+    if !(lo.is_finite() && hi.is_finite() && hi > lo) {
+        return Err(format!("'{s}': the lower height first, and the two different"));
+    }
+    Ok([lo, hi])
 }

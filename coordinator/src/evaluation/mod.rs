@@ -13,6 +13,12 @@
 //!   terrain's high/mid-frequency energy over the sources' (1 = as rough);
 //! - seams: gradient jumps across placement boundaries against those inside
 //!   placements (`quality::seam_score`; needs the per-cell provenance);
+//! - large-scale form ([`form`]): ridge above valley (at ridge centre-line cells, the
+//!   share higher than the nearest valley centre-line cell within two patches, and
+//!   than the valley cells' median), the elevation range beside the sources', and
+//!   drainage: the share of cells more than [`form::SINK_DEPTH_M`] below the
+//!   depression-filled surface and the share draining to the border, beside the
+//!   sources' shares weighted like the landforms;
 //! - repetition: the share of the output covered by placements whose source window
 //!   overlaps that of another placement from the same source within
 //!   [`REPEAT_RADIUS_PATCHES`] patches (needs the provenance).
@@ -20,6 +26,7 @@
 //! Sources' weights come from the provenance (cells per exemplar); without it every
 //! exemplar of the library weighs the same.
 
+pub mod form;
 pub mod landforms;
 pub mod quality;
 pub mod spectrum;
@@ -74,6 +81,16 @@ pub struct Evaluation {
     pub seams: Option<SeamScore>,
     /// Share of the output copied from a source window already used nearby.
     pub repetition: Option<f64>,
+    /// Ridge centre-line cells against valley centre-line cells (needs the sketch).
+    pub ridge_above_valley: form::RidgeAboveValley,
+    /// Lowest and highest cell of the terrain, and of the sources that supplied it.
+    pub elevation_range: [f32; 2],
+    pub source_elevation_range: [f32; 2],
+    /// Depth below the depression-filled surface that makes a cell sunk, metres.
+    pub sink_depth_m: f32,
+    /// The terrain's drainage, and its sources' weighted like the landforms.
+    pub drainage: crate::solvers::hydrology::DrainageShares,
+    pub source_drainage: crate::solvers::hydrology::DrainageShares,
     /// Each source's weight (its share of the placed output cells, or equal).
     pub source_weights: BTreeMap<String, f64>,
 }
@@ -100,6 +117,7 @@ pub fn evaluate(i: &Inputs) -> Evaluation {
             let a = adherence(i.terrain, g, kind, half, 4, i.patch / 2, &bounds);
             (a.sampled > 0).then(|| a.fraction())
         });
+        e.ridge_above_valley = form::ridge_above_valley(i.terrain, sk, i.patch, 4);
     }
     e.source_weights = weights(i.sources, i.provenance);
     let weighted = |name: &String| e.source_weights.get(name).copied().unwrap_or(0.0);
@@ -111,6 +129,13 @@ pub fn evaluate(i: &Inputs) -> Evaluation {
         .map(|(n, h)| (Landforms::of(&landforms::classify(h, i.cell_m)), weighted(n)))
         .collect();
     e.source_landforms = Landforms::mix(&src_landforms);
+    e.elevation_range = form::elevation_range(i.terrain);
+    let used: Vec<[f32; 2]> =
+        i.sources.iter().filter(|(n, _)| weighted(n) > 0.0).map(|(_, h)| form::elevation_range(h)).collect();
+    e.source_elevation_range =
+        [used.iter().map(|r| r[0]).fold(f32::INFINITY, f32::min), used.iter().map(|r| r[1]).fold(f32::NEG_INFINITY, f32::max)];
+    e.sink_depth_m = form::SINK_DEPTH_M;
+    (e.drainage, e.source_drainage) = form::drainage(i.terrain, i.sources, |n| e.source_weights.get(n).copied().unwrap_or(0.0));
     e.landform_distance = e.landforms.distance(&e.source_landforms);
     let own = spectrum::spectrum(i.terrain);
     let src: Vec<(spectrum::Spectrum, f64)> = i
@@ -280,6 +305,32 @@ impl Evaluation {
         row("roughness ratio", opt(self.roughness_ratio, 2), "high/mid-frequency energy vs the sources (1 = as rough)");
         row("seam score", opt(self.seams.map(|s| s.mean_ratio), 2), "gradient jumps across seams / inside patches");
         row("repetition", opt(self.repetition, 3), "share copied from a source window used nearby");
+        let rav = &self.ridge_above_valley;
+        row(
+            "ridge above nearest valley",
+            opt(rav.above_nearest_valley, 3),
+            &format!("{} ridge cells with a valley within two patches", rav.near_sampled),
+        );
+        row("ridge above valley median", opt(rav.above_valley_median, 3), "share of ridge cells above the valley cells' median");
+        let [lo, hi] = self.elevation_range;
+        let [slo, shi] = self.source_elevation_range;
+        row("elevation range", format!("{lo:.0}..{hi:.0}"), &format!("metres; sources {slo:.0}..{shi:.0}"));
+        let (d, s) = (&self.drainage, &self.source_drainage);
+        row(
+            "sink area",
+            format!("{:.2}%", 100.0 * d.sink_share),
+            &format!("cells > {} m below the filled surface; sources {:.2}%", self.sink_depth_m, 100.0 * s.sink_share),
+        );
+        row(
+            "drains to the border",
+            format!("{:.1}%", 100.0 * d.border_share),
+            &format!("sources {:.1}%", 100.0 * s.border_share),
+        );
+        row(
+            "flat landforms",
+            format!("{:.1}%", 100.0 * self.landforms.fractions[0]),
+            &format!("sources {:.1}%", 100.0 * self.source_landforms.fractions[0]),
+        );
         t.push_str("landforms (terrain / sources):\n");
         for (i, c) in landforms::CLASSES.iter().enumerate() {
             t.push_str(&format!(

@@ -5,15 +5,25 @@
 //! 1. [`exemplars::load`] — the library loaded into shards (in-process or on the fleet;
 //!    worker side: `ridgeline_worker::InProcessShard`, features from the on-disk cache);
 //! 2. [`sketch::analyse`] — sketch strokes → centre lines → guide field;
-//! 3. [`user_patches`] — user patches in BFS order with control points;
-//! 4. [`place_features`] — round 1: every shard scores blocks of user patches
+//! 3. [`large_scale::plan`] — the large-scale target from the strokes (ridges high,
+//!    valleys low towards their outlets), which every patch is merged on; on a large
+//!    output the whole synthesis (stages 3 to 8) runs first at a coarser level
+//!    ([`coarse_level`]) on that target, and the coarse terrain becomes the surface
+//!    the output level's patches are merged on;
+//! 4. [`user_patches`] — user patches in BFS order with control points;
+//! 5. [`place_features`] — round 1: every shard scores blocks of user patches
 //!    (`ShardScorer::score_block`) on a producer thread, while round 2
 //!    (`stages::selection::select_and_merge`) places block b in batches of
 //!    non-interacting user patches (Crause 2015, figure 6.9);
-//! 5. [`fill_holes`] — featureless patches, scored on the shards
+//! 6. [`fill_holes`] — featureless patches, scored on the shards
 //!    (`ShardScorer::score_fill`), tile by tile in colour phases, until no cell is empty;
-//! 6. [`fit_to_sketch`] — a last smooth deformation puts crests on ridge lines and
-//!    floors on valley lines (`--no-sketch-fit` skips it).
+//! 7. [`fit_to_sketch`] — a last smooth deformation puts crests on ridge lines and
+//!    floors on valley lines (`--no-sketch-fit` skips it);
+//! 8. conditioning — depressions breached so the valleys drain
+//!    ([`drainage::breach_depressions`]), the elevation range held
+//!    ([`large_scale::hold_range`]).
+//!
+//! Stages 3 and 8 are the coarse-to-fine form (`--no-large-scale` leaves them out).
 //!
 //! The session then evaluates the terrain and writes the outputs (`crate::session`).
 //!
@@ -28,15 +38,18 @@
 //! sketch 1 and its centre-line graphs 2; `keep_features_only` adds 4 for the debug
 //! view of the terrain before hole filling.
 
-use super::report::{JobResults, SynthReport};
+use super::report::{Conditioning, JobResults, SynthReport};
 use super::settings::JobSettings;
 use super::stage_runner::StageRunner;
 use super::SynthError;
 use crate::canvas::Canvas;
 use crate::progress::Stage;
-use crate::stages::exemplars::{self, Backend, Fleet, LoadSettings};
+use crate::stages::coarse_level::{self, CoarseJob};
+use crate::stages::drainage::{breach_depressions, ridge_crests};
+use crate::stages::exemplars::{self, Backend, Fleet, LoadSettings, COARSE_LEVEL};
 use crate::stages::feature_placement::{place_features, PlacementSettings};
-use crate::stages::hole_filling::fill_holes;
+use crate::stages::hole_filling::{fill_holes, FillSettings};
+use crate::stages::large_scale::{self, hold_range, LibraryForm};
 use crate::stages::sketch::{self, SketchFeatures, SketchInput};
 use crate::stages::sketch_fit::{fit_to_sketch, FitStats};
 use crate::stages::user_patches::{user_patches, UserPatch};
@@ -55,6 +68,8 @@ pub struct SynthOutput {
     pub sketch: SketchFeatures,
     pub user_patches: Vec<UserPatch>,
     pub canvas: Canvas,
+    /// The large-scale form the patches were merged on (none with `--no-large-scale`).
+    pub form: Option<large_scale::LargeScale>,
 }
 
 impl SynthOutput {
@@ -83,7 +98,10 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
     let p = set.patch;
     let (w, h) = job.sketch.size();
     let in_process = job.backend.in_process();
-    let load = LoadSettings { patch: p, cell_size: set.cell_size, max_side: set.max_side, cache_dir: set.cache_dir.clone() };
+    let cell_known = set.cell_size.or_else(|| exemplars::common_cell_size(job.sources)).is_some();
+    let coarse = if set.large_scale { coarse_level::factor_for(w, h, p, cell_known) } else { None };
+    let load =
+        LoadSettings { patch: p, cell_size: set.cell_size, max_side: set.max_side, cache_dir: set.cache_dir.clone(), coarse };
     let what = job.library.map_or_else(|| "(exemplars in memory)".to_string(), |p| p.display().to_string());
     let ex =
         run.run(Stage::Exemplars, |cx| Ok(cx.install(|| exemplars::load(job.sources, &what, job.fleet, in_process, &load))?))?;
@@ -92,9 +110,46 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
 
     let (sk, sketch_image) = run.run(Stage::SketchFeatures, |cx| Ok(cx.install(|| sketch::analyse_input(job.sketch, p))))?;
 
+    let library_at = |level: usize| LibraryForm::of(&shards.iter().flat_map(|s| s.sources(level)).collect::<Vec<_>>());
+    let form = match (set.large_scale, library_at(OUTPUT_LEVEL)) {
+        (true, Some(lib)) => Some(run.run(Stage::LargeScale, |_| Ok(large_scale::plan(&sk, &lib, p, set.elevation_range)))?),
+        _ => None,
+    };
+    // on a large output, the whole synthesis first at the coarse level: its terrain is
+    // then the surface the output level's patches are merged on
+    let form = match (form, coarse, library_at(COARSE_LEVEL)) {
+        (Some(_), Some(f), Some(lib)) => Some(run.run(Stage::CoarseLevel, |cx| {
+            let mut c = CoarseJob::new(&sk, f, &lib, p, set.elevation_range);
+            let ups = user_patches(&c.sketch, p);
+            let settings = PlacementSettings {
+                level: COARSE_LEVEL,
+                base: Some(&c.form.target),
+                k: set.k,
+                block: set.block,
+                seed: set.seed,
+                max_batch: set.max_batch,
+                progress: &|_, _, _| {},
+                cancel: cx.cancel,
+            };
+            let target = c.form.target.clone();
+            place_features(&mut c.canvas, &ups, shards, &settings, cx.pool)?;
+            let empty = c.canvas.empty as u64;
+            let on_fill = |left: u64, _: &Canvas| cx.progress(empty - left, empty);
+            let fill = FillSettings { level: COARSE_LEVEL, seed: set.seed, base: Some(&target) };
+            fill_holes(&mut c.canvas, shards, &fill, cx.pool, &on_fill, cx.cancel)?;
+            if set.fit_sketch {
+                cx.install(|| fit_to_sketch(&mut c.canvas.heights, &c.sketch, p));
+            }
+            Ok(cx.install(|| c.finish(p)).0)
+        })?),
+        (form, _, _) => form,
+    };
+    let base = form.as_ref().map(|f| &f.target);
+
     let ups = run.run(Stage::UserPatches, |_| Ok(user_patches(&sk, p)))?;
 
     let mut canvas = Canvas::new(w, h, p);
+    canvas.levels_given = form.is_some();
     let placement = run.run(Stage::FeaturePlacement, |cx| {
         let progress = |done: u64, total: u64, c: &Canvas| {
             cx.progress(done, total);
@@ -102,6 +157,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
         };
         let settings = PlacementSettings {
             level: OUTPUT_LEVEL,
+            base,
             k: set.k,
             block: set.block,
             seed: set.seed,
@@ -120,12 +176,24 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
             cx.progress(empty - left, empty);
             cx.placements(c);
         };
-        Ok(fill_holes(&mut canvas, shards, OUTPUT_LEVEL, set.seed, cx.pool, &on_fill, cx.cancel)?)
+        let fill = FillSettings { level: OUTPUT_LEVEL, seed: set.seed, base };
+        Ok(fill_holes(&mut canvas, shards, &fill, cx.pool, &on_fill, cx.cancel)?)
     })?;
 
     let sketch_fit = match set.fit_sketch {
         true => run.run(Stage::SketchFit, |cx| Ok(cx.install(|| fit_to_sketch(&mut canvas.heights, &sk, p))))?,
         false => FitStats::default(),
+    };
+
+    let conditioning = match &form {
+        Some(form) => Some(run.run(Stage::Conditioning, |cx| {
+            Ok(cx.install(|| {
+                let drainage = breach_depressions(&mut canvas.heights, &ridge_crests(&sk), p);
+                let range_change_m = hold_range(&mut canvas.heights, form);
+                Conditioning { drainage, range: form.range, range_change_m, form: form.stats }
+            }))
+        })?),
+        None => None,
     };
 
     let report = SynthReport::of_job(JobResults {
@@ -140,7 +208,8 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
         placement,
         filling,
         sketch_fit,
+        conditioning,
     });
-    let out = SynthOutput { sketch_image, features_only, sketch: sk, user_patches: ups, canvas };
+    let out = SynthOutput { sketch_image, features_only, sketch: sk, user_patches: ups, canvas, form };
     Ok((out, report))
 }

@@ -6,8 +6,10 @@
 use super::settings::JobSettings;
 use crate::canvas::Canvas;
 use crate::evaluation::quality::{adherence, seam_score, Adherence, SeamScore};
+use crate::stages::drainage::DrainageStats;
 use crate::stages::feature_placement::PlacementStats;
 use crate::stages::hole_filling::FillStats;
+use crate::stages::large_scale::FormStats;
 use crate::stages::sketch::SketchFeatures;
 use crate::stages::sketch_fit::FitStats;
 use crate::stages::user_patches::{count_by_kind, UserPatch};
@@ -48,6 +50,10 @@ pub struct SynthReport {
     /// The final fit to the sketch: centre-line cells that did not fit before it,
     /// cells it moved and by how much at most.
     pub sketch_fit: FitStats,
+    /// The coarse-to-fine form: the large-scale target, the depressions breached at
+    /// the end and the elevation range held (absent with `--no-large-scale`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub large_scale: Option<Conditioning>,
     /// Sketch adherence of the result, per kind: sampled centre-line points whose
     /// cross profile at patch/4 has the kind's shape (a crest for ridges, a floor for
     /// valleys).
@@ -79,6 +85,19 @@ pub struct JobResults<'a> {
     pub placement: PlacementStats,
     pub filling: FillStats,
     pub sketch_fit: FitStats,
+    pub conditioning: Option<Conditioning>,
+}
+
+/// What the large-scale stages did.
+#[derive(Debug, Clone, Copy, Default, serde::Serialize)]
+pub struct Conditioning {
+    /// The target: grid cells held by strokes, outlets and closed basins, base level.
+    pub form: FormStats,
+    /// Depressions breached at the end.
+    pub drainage: DrainageStats,
+    /// The range the output was held within, and the largest change that took.
+    pub range: [f32; 2],
+    pub range_change_m: f32,
 }
 
 impl SynthReport {
@@ -106,6 +125,7 @@ impl SynthReport {
             placements_per_exemplar: placements_per_exemplar(canvas, &exemplars),
             exemplars,
             sketch_fit: r.sketch_fit,
+            large_scale: r.conditioning,
             adherence: sk.lines.map(|kind, g| adherence(&canvas.heights, g, kind, set.patch as f32 / 4.0, 4, 8, &bounds)),
             seams: seam_score(&canvas.heights, &canvas.provenance.data),
             shards: ShardReport::of_shards(r.shards, r.times_before),

@@ -35,6 +35,13 @@ pub struct JobSettings {
     /// Deform the finished terrain so every sketched line is the crest (floor) of its
     /// cross-section (`stages::sketch_fit`; default on).
     pub fit_sketch: bool,
+    /// Shape the terrain coarse to fine: a large-scale target from the strokes that
+    /// every patch builds on, depressions breached at the end, the elevation range
+    /// held (`stages::large_scale`, `stages::drainage`; default on). Off: each patch
+    /// keeps the level it matches to, as before.
+    pub large_scale: bool,
+    /// The output's elevation range, metres (`None`: within its sources').
+    pub elevation_range: Option<[f32; 2]>,
 }
 
 impl Default for JobSettings {
@@ -52,6 +59,8 @@ impl Default for JobSettings {
             keep_features_only: false,
             max_memory: None,
             fit_sketch: true,
+            large_scale: true,
+            elevation_range: None,
         }
     }
 }
@@ -72,6 +81,13 @@ impl JobSettings {
             if !c.is_finite() || c <= 0.0 || c > MAX_CELL_SIZE_M {
                 return Err(SynthError::Config(format!(
                     "cell size {c} m: give a positive number of metres, at most {MAX_CELL_SIZE_M}"
+                )));
+            }
+        }
+        if let Some([lo, hi]) = self.elevation_range {
+            if !(lo.is_finite() && hi.is_finite() && hi > lo && lo.abs() <= 20_000.0 && hi.abs() <= 20_000.0) {
+                return Err(SynthError::Config(format!(
+                    "elevation range {lo}:{hi}: give two finite heights within ±20000 m, the lower first"
                 )));
             }
         }

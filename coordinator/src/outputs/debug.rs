@@ -11,10 +11,16 @@
 //!   the exemplar that supplied most of it, with a legend (`evaluation::landforms`);
 //! - `seams.png`: the hillshade in grey with every placement boundary coloured by
 //!   its gradient jump against the 99th percentile of jumps inside patches (yellow
-//!   at that percentile, red at twice it and above): where a seam would show.
+//!   at that percentile, red at twice it and above): where a seam would show;
+//! - `drainage.png`: flow accumulation over the hillshade, closed basins marked
+//!   ([`drainage_view`]);
+//! - `large_scale.png`: the large-scale target every patch was merged on
+//!   (`stages::large_scale`), tinted by height (blue-green low, brown, white high)
+//!   over its own hillshade at 4x relief, with the ridge (red) and valley (blue)
+//!   centre lines, when the job had one.
 
 /// The files `--debug-dir` holds after a job.
-pub const DEBUG_FILES: [&str; 7] = [
+pub const DEBUG_FILES: [&str; 9] = [
     "sketch_features.png",
     "features_only.png",
     "provenance.png",
@@ -22,6 +28,8 @@ pub const DEBUG_FILES: [&str; 7] = [
     "provenance_cells.u32",
     "landforms.png",
     "seams.png",
+    "drainage.png",
+    "large_scale.png",
 ];
 
 use crate::job::pipeline::SynthOutput;
@@ -209,6 +217,64 @@ fn landforms_view(out: &SynthOutput, source: Option<(&str, &ridgeline_terrain::g
     img
 }
 
+/// Drainage over the hillshade: flow accumulation in blue (log of the drainage area,
+/// from 100 cells), closed basins deeper than the sink depth in red, by depth.
+pub fn drainage_view(t: &ridgeline_terrain::grid::Heightfield, cell: f32) -> RgbImage {
+    use crate::evaluation::form::SINK_DEPTH_M;
+    use crate::solvers::hydrology::flood;
+    let f = flood(t);
+    let acc = f.accumulation();
+    let shade = hillshade(t, cell);
+    let top = (t.data.len() as f32).ln().max(1.0);
+    let (lo, _) = (100f32.ln(), top);
+    RgbImage::from_fn(t.width as u32, t.height as u32, |x, y| {
+        let i = y as usize * t.width + x as usize;
+        let g = shade.get_pixel(x, y).0[0] as f32 * 0.6 + 40.0;
+        let depth = f.level[i] - t.data[i];
+        if t.data[i].is_finite() && depth > SINK_DEPTH_M {
+            let k = (depth / 100.0).min(1.0);
+            return Rgb([255, (180.0 * (1.0 - k)) as u8, (120.0 * (1.0 - k)) as u8]);
+        }
+        let a = ((acc[i].ln() - lo) / (top - lo)).clamp(0.0, 1.0);
+        if a > 0.0 {
+            let b = 0.35 + 0.65 * a;
+            return Rgb([(g * (1.0 - b)) as u8, (g * (1.0 - b) + 90.0 * b) as u8, (g * (1.0 - b) + 255.0 * b) as u8]);
+        }
+        Rgb([g as u8, g as u8, g as u8])
+    })
+}
+
+/// The large-scale target tinted by height over its hillshade, with the centre lines
+/// (see the header).
+pub fn target_view(out: &SynthOutput, target: &Heightfield, cell: f32) -> RgbImage {
+    let (lo, hi) = target.finite_range().unwrap_or((0.0, 1.0));
+    let relief = Heightfield::from_vec(target.width, target.height, target.data.iter().map(|v| 4.0 * v).collect());
+    let shade = hillshade(&relief, cell);
+    let stops: [(f32, [f32; 3]); 4] =
+        [(0.0, [40.0, 110.0, 120.0]), (0.35, [110.0, 150.0, 80.0]), (0.7, [150.0, 110.0, 70.0]), (1.0, [245.0, 245.0, 245.0])];
+    let tint = |t: f32| {
+        let k = stops.windows(2).position(|w| t <= w[1].0).unwrap_or(2);
+        let ((a, ca), (b, cb)) = (stops[k], stops[k + 1]);
+        let u = ((t - a) / (b - a)).clamp(0.0, 1.0);
+        [0, 1, 2].map(|c| ca[c] + u * (cb[c] - ca[c]))
+    };
+    let ridges = out.sketch.graph(ridgeline_terrain::FeatureKind::Ridge);
+    let valleys = out.sketch.graph(ridgeline_terrain::FeatureKind::Valley);
+    RgbImage::from_fn(target.width as u32, target.height as u32, |x, y| {
+        let (xi, yi) = (x as usize, y as usize);
+        let i = (yi * target.width + xi) as u32;
+        if ridges.contains(i) {
+            return Rgb([230, 40, 30]);
+        }
+        if valleys.contains(i) {
+            return Rgb([30, 80, 230]);
+        }
+        let t = (target.get(xi, yi) - lo) / (hi - lo).max(1e-3);
+        let s = 0.45 + 0.55 * shade.get_pixel(x, y).0[0] as f32 / 255.0;
+        Rgb(tint(t).map(|c| (c * s).min(255.0) as u8))
+    })
+}
+
 /// Placement boundaries coloured by gradient jump over the hillshade (see the header).
 fn seams_view(out: &SynthOutput, cell: f32) -> RgbImage {
     let t = out.terrain();
@@ -293,5 +359,10 @@ pub fn write_debug_outputs(
         sources.iter().find(|(n, _)| *n == best)
     });
     write_rgb_png(&dir.join("landforms.png"), &landforms_view(out, main_source.as_ref().map(|(n, h)| (n.as_str(), h)), cell))?;
+    write_rgb_png(&dir.join("drainage.png"), &drainage_view(out.terrain(), cell))?;
+    if let Some(form) = &out.form {
+        let target = crate::stages::large_scale::target_heights(form, &out.canvas);
+        write_rgb_png(&dir.join("large_scale.png"), &target_view(out, &target, cell))?;
+    }
     write_rgb_png(&dir.join("seams.png"), &seams_view(out, cell))
 }

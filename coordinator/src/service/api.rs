@@ -69,6 +69,10 @@ pub struct JobRequest {
     /// before hole filling, provenance, landforms beside the main source's, seams.
     #[serde(default)]
     pub debug: bool,
+    /// The output's elevation range, metres `[min, max]` (`synth --elevation-range`);
+    /// default: within its sources' range.
+    #[serde(default)]
+    pub elevation_range: Option<[f32; 2]>,
 }
 
 fn default_patch() -> usize {
@@ -128,6 +132,11 @@ fn parse_request(body: &[u8], max_side: u32) -> Result<(JobRequest, SketchSource
     if req.width.is_some() != req.height.is_some() {
         return Err(bad("give both width and height, or neither"));
     }
+    if let Some([lo, hi]) = req.elevation_range {
+        if !(lo.is_finite() && hi.is_finite() && hi > lo) {
+            return Err(bad(format!("elevation_range [{lo}, {hi}]: give two finite heights, the lower first")));
+        }
+    }
     Ok((req, sketch))
 }
 
@@ -157,7 +166,8 @@ pub async fn submit(State(st): State<Arc<AppState>>, body: Bytes) -> Result<Resp
                     report: Some(dir.join("report.json")),
                     debug_dir: req.debug.then(|| dir.to_path_buf()),
                 })
-                .keep_features_only(req.debug);
+                .keep_features_only(req.debug)
+                .elevation_range(req.elevation_range);
             if let (Some(w), Some(h)) = (req.width, req.height) {
                 b = b.size(w, h);
             }

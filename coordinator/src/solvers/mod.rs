@@ -1,7 +1,10 @@
 //! The numerical solvers the stages call: [`graph_cut`] (Boykov–Kolmogorov max-flow
-//! for seams) and [`poisson`] (screened Poisson reconstruction by conjugate gradients,
-//! preconditioned by [`two_level`]). None knows about patches or sketches.
+//! for seams), [`poisson`] (screened Poisson reconstruction by conjugate gradients,
+//! preconditioned by [`two_level`]) and [`hydrology`] (priority-flood filling and
+//! routing, basins, drainage area). None knows about patches or sketches.
 
 pub mod graph_cut;
+pub mod hydrology;
+pub mod membrane;
 pub mod poisson;
 pub mod two_level;

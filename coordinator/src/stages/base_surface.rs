@@ -32,6 +32,10 @@ use crate::canvas::{Canvas, Win};
 /// Coarse cell side = patch / this (at least 4 cells).
 pub const CELL_PATCH_DIV: usize = 2;
 
+/// The output level's own band on a coarser level, in coarse cells (σ of the Gaussian
+/// between the bands: [`BaseSurface::coarse_terrain`]).
+pub const DETAIL_BAND: f32 = 2.0;
+
 /// Jacobi sweeps over the unknown cells at each pyramid level.
 const SWEEPS: usize = 24;
 
@@ -42,6 +46,10 @@ pub struct BaseSurface {
     cw: usize,
     ch: usize,
     values: Vec<f32>,
+    /// A coarser level's terrain ([`BaseSurface::coarse_terrain`]): it already holds
+    /// every wavelength down to about its cell, so a patch laid on it keeps only its
+    /// detail below that scale, not its relief about a plane.
+    detail_sigma: Option<f32>,
 }
 
 /// One pyramid level: values and which cells are known.
@@ -177,7 +185,42 @@ impl BaseSurface {
             levels.last_mut().expect("a level").pull(&coarse);
         }
         let top = levels.pop().expect("a level");
-        BaseSurface { cell, cw, ch, values: top.v }
+        BaseSurface { cell, cw, ch, values: top.v, detail_sigma: None }
+    }
+
+    /// A surface over a grid of `cw x ch` coarse cells of `cell` cells each, with the
+    /// given values (row by row).
+    pub fn from_grid(cell: usize, cw: usize, ch: usize, values: Vec<f32>) -> BaseSurface {
+        assert_eq!(values.len(), cw * ch, "one value per coarse cell");
+        BaseSurface { cell: cell.max(1), cw, ch, values, detail_sigma: None }
+    }
+
+    /// A coarser level's terrain, `f` output cells a coarse cell, as the surface the
+    /// output level is laid on: patches keep only the wavelengths below about
+    /// [`DETAIL_BAND`] coarse cells (a Laplacian pyramid's band, Burt and Adelson
+    /// 1983), the coarse terrain gives the rest. The coarse grid is blurred so that,
+    /// with its cells' box of `f` (variance f²/12) and the B-spline (f²/3), the surface
+    /// is the coarse terrain under a Gaussian of σ = DETAIL_BAND·f: the same blur
+    /// [`detail_on`] takes out of each patch, so the two bands add up to one terrain.
+    /// (With the band at the coarse cell itself, σ = 0.65 f, the coarse patches'
+    /// short wavelengths doubled the output's power at 8 to 32 cells: half the
+    /// sources' roughness on a 4096² job.)
+    pub fn coarse_terrain(f: usize, cw: usize, ch: usize, values: Vec<f32>) -> BaseSurface {
+        let sigma = DETAIL_BAND * f as f32;
+        let pre = (DETAIL_BAND * DETAIL_BAND - 5.0 / 12.0).max(0.0).sqrt();
+        let values = gaussian_blur(&values, cw, ch, pre);
+        BaseSurface { detail_sigma: Some(sigma), ..BaseSurface::from_grid(f, cw, ch, values) }
+    }
+
+    /// Candidate `pixels` as merged on this surface, whose values over the patch are
+    /// `under` (from [`BaseSurface::patch`]): on a smooth target, the candidate's
+    /// best-fit plane replaced by it ([`on_base`]); on a coarser level's terrain, the
+    /// candidate's detail below that level's scale added to it ([`detail_on`]).
+    pub fn lay(&self, pixels: &[f32], under: &[f32]) -> Vec<f32> {
+        match self.detail_sigma {
+            Some(sigma) => detail_on(pixels, under, sigma),
+            None => on_base(pixels, under),
+        }
     }
 
     /// The surface at global cell (x, y): the uniform cubic B-spline over the coarse
@@ -254,6 +297,90 @@ pub fn on_base(pixels: &[f32], base: &[f32]) -> Vec<f32> {
         .collect()
 }
 
+/// The detail of a square patch `pixels` below a Gaussian of `sigma` cells (the patch
+/// minus its own blur, normalised at the patch's edges so a tilt has no detail),
+/// added to `base`.
+pub fn detail_on(pixels: &[f32], base: &[f32], sigma: f32) -> Vec<f32> {
+    let p = (pixels.len() as f64).sqrt() as usize;
+    // a blur's one-sided taps near the patch's edges do not follow a curved surface:
+    // take the patch's best-fit quadric out first, so what the blur must follow there
+    // is small, then its blur
+    let rest = less_quadric(pixels, p);
+    let low = gaussian_blur(&rest, p, p, sigma);
+    rest.iter().zip(&low).zip(base).map(|((&v, &l), &b)| v - l + b).collect()
+}
+
+/// A `p` x `p` patch less its least-squares quadric a + bx + cy + dx² + exy + fy²
+/// (centred coordinates; normal equations in f64, solved by elimination).
+fn less_quadric(pixels: &[f32], p: usize) -> Vec<f32> {
+    let c = (p as f64 - 1.0) / 2.0;
+    let terms = |k: usize| {
+        let (x, y) = (((k % p) as f64 - c) / c.max(1.0), ((k / p) as f64 - c) / c.max(1.0));
+        [1.0, x, y, x * x, x * y, y * y]
+    };
+    let mut a = [[0f64; 7]; 6];
+    for (k, &v) in pixels.iter().enumerate() {
+        let t = terms(k);
+        for i in 0..6 {
+            for j in 0..6 {
+                a[i][j] += t[i] * t[j];
+            }
+            a[i][6] += t[i] * v as f64;
+        }
+    }
+    for i in 0..6 {
+        let piv = (i..6).max_by(|&r, &s| a[r][i].abs().total_cmp(&a[s][i].abs())).unwrap_or(i);
+        a.swap(i, piv);
+        if a[i][i].abs() < 1e-12 {
+            return on_base(pixels, &vec![0f32; pixels.len()]);
+        }
+        let pivot = a[i];
+        for (r, row) in a.iter_mut().enumerate() {
+            if r != i {
+                let f = row[i] / pivot[i];
+                row.iter_mut().zip(&pivot).skip(i).for_each(|(x, &q)| *x -= f * q);
+            }
+        }
+    }
+    let coef: Vec<f64> = (0..6).map(|i| a[i][6] / a[i][i]).collect();
+    pixels
+        .iter()
+        .enumerate()
+        .map(|(k, &v)| (v as f64 - terms(k).iter().zip(&coef).map(|(t, c)| t * c).sum::<f64>()) as f32)
+        .collect()
+}
+
+/// A `w` x `h` grid under a separable Gaussian of `sigma` cells, each value the
+/// weighted mean of the taps inside the grid (in f64, taps in a fixed order).
+fn gaussian_blur(src: &[f32], w: usize, h: usize, sigma: f32) -> Vec<f32> {
+    if sigma <= 0.0 {
+        return src.to_vec();
+    }
+    let r = (3.0 * sigma).ceil() as i64;
+    let k: Vec<f64> = (-r..=r).map(|d| (-(d * d) as f64 / (2.0 * (sigma as f64).powi(2))).exp()).collect();
+    let pass = |src: &[f64], along_x: bool| -> Vec<f64> {
+        let (lines, len) = if along_x { (h, w) } else { (w, h) };
+        let at = |a: usize, b: usize| if along_x { a * w + b } else { b * w + a };
+        let mut out = vec![0f64; w * h];
+        for a in 0..lines {
+            for b in 0..len as i64 {
+                let (mut s, mut sw) = (0f64, 0f64);
+                for (t, &kt) in k.iter().enumerate() {
+                    let q = b + t as i64 - r;
+                    if (0..len as i64).contains(&q) {
+                        s += kt * src[at(a, q as usize)];
+                        sw += kt;
+                    }
+                }
+                out[at(a, b as usize)] = s / sw;
+            }
+        }
+        out
+    };
+    let v: Vec<f64> = src.iter().map(|&x| x as f64).collect();
+    pass(&pass(&v, true), false).into_iter().map(|x| x as f32).collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -311,6 +438,31 @@ mod tests {
             let want = base[k] + bump(k % p, k / p) - mean_bump;
             assert!((out[k] - want).abs() < 1e-2, "cell {k}: {} vs {want}", out[k]);
         }
+    }
+
+    #[test]
+    fn a_coarse_terrain_keeps_only_the_patch_detail_below_its_scale() {
+        let p = 64;
+        // a wide bump (the patch's own large form) and a short wave (period 6) on a tilt
+        let long = |x: usize| 300.0 * (x as f32 * std::f32::consts::TAU / 200.0).cos();
+        let short = |x: usize| 10.0 * (x as f32 * std::f32::consts::TAU / 6.0).sin();
+        let pixels: Vec<f32> = (0..p * p).map(|k| 5.0 * (k / p) as f32 + long(k % p) + short(k % p)).collect();
+        let surface = BaseSurface::coarse_terrain(4, 32, 32, vec![1000.0; 32 * 32]);
+        let out = surface.lay(&pixels, &vec![1000.0; p * p]);
+        // the short wave on the base, the bump and the tilt gone: what is left besides
+        // the short wave varies by a small part of the bump's 300 m (one-sided taps
+        // near the patch's edges leave some)
+        let rest: Vec<f32> = (0..p * p).map(|k| out[k] - 1000.0 - short(k % p)).collect();
+        let (lo, hi) = rest.iter().fold((f32::MAX, f32::MIN), |(a, b), &v| (a.min(v), b.max(v)));
+        assert!(hi - lo < 45.0, "left besides the short wave: {lo}..{hi}");
+        let mean = rest.iter().sum::<f32>() / rest.len() as f32;
+        let centre = (16..48).flat_map(|y| (16..48).map(move |x| y * p + x));
+        assert!(centre.clone().all(|k| (rest[k] - mean).abs() < 15.0), "the centre keeps the short wave");
+        // a smooth target keeps the whole relief about the plane instead
+        let target = BaseSurface::from_grid(4, 32, 32, vec![1000.0; 32 * 32]);
+        let kept = target.lay(&pixels, &vec![1000.0; p * p]);
+        let amp = (16..48).map(|x| (kept[32 * p + x] - 1000.0).abs()).fold(0f32, f32::max);
+        assert!(amp > 30.0, "the bump stays on a smooth target: {amp}");
     }
 
     #[test]

@@ -155,7 +155,13 @@ pub struct LoadSettings {
     pub cell_size: Option<f32>,
     pub max_side: u32,
     pub cache_dir: Option<PathBuf>,
+    /// Also prepare the shards at a level this many times coarser
+    /// (`stages::coarse_level`, shard level [`COARSE_LEVEL`]).
+    pub coarse: Option<usize>,
 }
+
+/// The shard level of the coarse level, when a job has one.
+pub const COARSE_LEVEL: usize = 1;
 
 /// The stage's result: the shards and the output cell size they were prepared at.
 pub struct LoadedExemplars {
@@ -190,7 +196,10 @@ pub fn load(
         return Err(ExemplarsError::NoExemplars(what.to_string(), String::new()));
     }
     let cell = set.cell_size.or_else(|| common_cell_size(sources));
-    let levels = vec![LevelSpec { patch: set.patch, out_cell: cell }];
+    let mut levels = vec![LevelSpec { patch: set.patch, out_cell: cell }];
+    if let (Some(f), Some(c)) = (set.coarse, cell) {
+        levels.push(LevelSpec { patch: set.patch, out_cell: Some(c * f as f32) });
+    }
     let items: Vec<(u32, Arc<dyn ExemplarSource>)> = sources.iter().enumerate().map(|(i, s)| (i as u32, s.clone())).collect();
     let shards: Shards = match fleet {
         #[cfg(feature = "fleet")]

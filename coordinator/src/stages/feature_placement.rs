@@ -20,6 +20,7 @@
 
 use crate::canvas::{Canvas, Rect};
 use crate::shards::on_every_shard;
+use crate::stages::base_surface::BaseSurface;
 use crate::stages::selection::select_and_merge;
 use crate::stages::user_patches::UserPatch;
 use rayon::prelude::*;
@@ -117,6 +118,8 @@ fn inverted_candidates(
 pub struct PlacementSettings<'a> {
     /// The level of the shards the canvas is at.
     pub level: usize,
+    /// The large-scale target the patches are merged on (`stages::large_scale`).
+    pub base: Option<&'a BaseSurface>,
     pub k: usize,
     pub block: usize,
     pub seed: u64,
@@ -216,7 +219,7 @@ pub fn place_features(
                 let Ok(msg) = rx.try_recv() else { break };
                 receive(msg, &mut pending, &mut st, &mut candidates)?;
             }
-            let max = if canvas.base_level.is_none() {
+            let max = if canvas.base_level.is_none() && !canvas.levels_given {
                 1
             } else if set.max_batch == 0 {
                 usize::MAX
@@ -236,7 +239,7 @@ pub fn place_features(
                         let _m = tracing::debug_span!("merge", user_patch = u.id).entered();
                         let r = Rect { x0: u.cx, y0: u.cy, x1: u.cx + 1, y1: u.cy + 1 };
                         let mut sub = canvas.extract(r.grow(p / 2 + 2, w, h), r);
-                        let placed = select_and_merge(&mut sub, u.cx, u.cy, c, set.seed).is_some();
+                        let placed = select_and_merge(&mut sub, u.cx, u.cy, c, set.seed, set.base).is_some();
                         (sub, placed)
                     })
                     .collect()

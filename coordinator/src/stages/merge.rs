@@ -332,6 +332,8 @@ impl Canvas {
         let old = self.old_values(win);
         let mu = if old.iter().any(|v| !v.is_nan()) {
             Self::mean_offset(&old, new)
+        } else if self.levels_given {
+            0.0
         } else {
             // nothing to attach to: bring the patch to the base level (see `Canvas`)
             let mean = new.iter().sum::<f32>() / new.len().max(1) as f32;

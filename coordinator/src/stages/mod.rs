@@ -1,14 +1,19 @@
 //! The pipeline's stages, in the order a job runs them (see [`crate::job::pipeline`]):
-//! the [`exemplars`] loaded into shards, [`sketch`] analysis, [`user_patches`], [`feature_placement`] (rounds 1 and 2, with
-//! [`selection`]), [`hole_filling`] (with its [`base_surface`] and [`ragged_edge`])
-//! and [`sketch_fit`]. Round 2 and hole filling share [`window_scoring`] (open a
-//! window, rank, cut, merge) and [`merge`] (graph-cut seam, Shepard correction,
-//! Poisson solve).
+//! the [`exemplars`] loaded into shards, [`sketch`] analysis, the [`large_scale`]
+//! target (and on large outputs the whole synthesis first at a [`coarse_level`]),
+//! [`user_patches`], [`feature_placement`] (rounds 1 and 2, with [`selection`]),
+//! [`hole_filling`] (with its [`base_surface`] and [`ragged_edge`]), [`sketch_fit`]
+//! and the [`drainage`] conditioning. Round 2 and hole filling share
+//! [`window_scoring`] (open a window, rank, cut, merge) and [`merge`] (graph-cut
+//! seam, Shepard correction, Poisson solve).
 
 pub mod base_surface;
+pub mod coarse_level;
+pub mod drainage;
 pub mod exemplars;
 pub mod feature_placement;
 pub mod hole_filling;
+pub mod large_scale;
 pub mod merge;
 pub mod ragged_edge;
 pub mod selection;

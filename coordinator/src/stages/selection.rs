@@ -16,6 +16,7 @@
 //! seed and never more.
 
 use crate::canvas::{Canvas, Placement};
+use crate::stages::base_surface::BaseSurface;
 use crate::stages::merge::SeamLimits;
 use crate::stages::window_scoring::{cut_and_merge, Target};
 use rayon::prelude::*;
@@ -31,8 +32,17 @@ use ridgeline_terrain::shard::ScoredCandidate;
 pub const ALPHA_P: f32 = 0.5;
 
 /// Round 2 for one user patch: picks among `cands` (the union of its best-sets, any
-/// order) and merges the winner. Returns the index of the chosen candidate.
-pub fn select_and_merge(canvas: &mut Canvas, cx: usize, cy: usize, cands: &[ScoredCandidate], seed: u64) -> Option<usize> {
+/// order) and merges the winner — on `base` when the job has a large-scale target (its
+/// best-fit plane replaced by the target, as hole filling's fills are). Returns the
+/// index of the chosen candidate.
+pub fn select_and_merge(
+    canvas: &mut Canvas,
+    cx: usize,
+    cy: usize,
+    cands: &[ScoredCandidate],
+    seed: u64,
+    base: Option<&BaseSurface>,
+) -> Option<usize> {
     if cands.is_empty() {
         return None;
     }
@@ -62,11 +72,15 @@ pub fn select_and_merge(canvas: &mut Canvas, cx: usize, cy: usize, cands: &[Scor
         })
         .collect();
     scored.sort_by(|a, b| a.0.total_cmp(&b.0).then(cands[a.1].cand.cmp(&cands[b.1].cand)));
+    let under = base.map(|b| (b, b.patch(&t.win, canvas.origin())));
     let (index, _) = cut_and_merge(
         canvas,
         &t,
         &scored,
-        &|i| cands[i].pixels.clone(),
+        &|i| match &under {
+            Some((b, under)) => b.lay(&cands[i].pixels, under),
+            None => cands[i].pixels.clone(),
+        },
         relief,
         SeamLimits { keep_radius: p as f32 / 8.0, band: None, cut_noise: None },
         |i| {

@@ -35,7 +35,7 @@
 //! filled only within a ragged extent of its core (`ragged_edge`).
 
 use crate::canvas::{Canvas, Placement, Rect, Win};
-use crate::stages::base_surface::{on_base, BaseSurface};
+use crate::stages::base_surface::BaseSurface;
 use crate::stages::merge::SeamLimits;
 use crate::stages::window_scoring::{cut_and_merge, Target};
 use ridgeline_terrain::shard::{FillCandidate, FillQuery};
@@ -262,7 +262,7 @@ impl TileFill {
             &mut self.sub,
             &t,
             &order,
-            &|i| on_base(&cands[i].pixels, &base),
+            &|i| env.base.lay(&cands[i].pixels, &base),
             relief,
             SeamLimits { keep_radius: 0.0, band: Some(band), cut_noise: Some((p / 8).max(2)) },
             |i| fill_placement(&cands[i], cx, cy),

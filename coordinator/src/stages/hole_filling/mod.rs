@@ -70,6 +70,15 @@ pub fn tile_side(w: usize, h: usize, p: usize) -> usize {
 /// holds at most this many fill targets).
 pub const TILES_AT_ONCE: usize = 64;
 
+/// What hole filling needs from the job.
+pub struct FillSettings<'a> {
+    /// The level of the shards the canvas is at.
+    pub level: usize,
+    pub seed: u64,
+    /// The large-scale target fills follow; `None`: a membrane over the placed features.
+    pub base: Option<&'a BaseSurface>,
+}
+
 /// Why hole filling could not finish.
 #[derive(Debug, thiserror::Error)]
 pub enum FillError {
@@ -165,12 +174,12 @@ fn typical_slope(canvas: &Canvas) -> f32 {
 pub fn fill_holes(
     canvas: &mut Canvas,
     shards: &[Arc<dyn ShardScorer>],
-    level: usize,
-    seed: u64,
+    set: &FillSettings<'_>,
     pool: &rayon::ThreadPool,
     on_fill: &(dyn Fn(u64, &Canvas) + Sync),
     cancel: &crate::progress::CancelToken,
 ) -> Result<FillStats, FillError> {
+    let (level, seed) = (set.level, set.seed);
     let mut stats = FillStats::default();
     let (w, h) = canvas.full_size();
     if canvas.empty == 0 {
@@ -190,11 +199,17 @@ pub fn fill_holes(
         let q = FillQuery { id: 0, samples: Vec::new(), relief: 1.0, noise: None, coherence: Vec::new(), avoid: Vec::new() };
         let best = score_wave(shards, level, &[q], seed, pool)?.remove(0);
         let c = best.first().ok_or(FillError::NoCandidates)?;
-        let m = canvas.place(w / 2, h / 2, &c.pixels, 0.0, fill_placement(c, w / 2, h / 2));
+        let pixels = match set.base {
+            Some(b) => b.lay(&c.pixels, &b.patch(&canvas.window(w / 2, h / 2), canvas.origin())),
+            None => c.pixels.clone(),
+        };
+        let m = canvas.place(w / 2, h / 2, &pixels, 0.0, fill_placement(c, w / 2, h / 2));
         stats.fills += 1;
         stats.cells_filled += m.new_cells;
     }
-    let env = FillEnv { slope_ref: typical_slope(canvas), median_relief, base: BaseSurface::of(canvas) };
+    // the large-scale target when the job has one, else the membrane over what is placed
+    let base = set.base.cloned().unwrap_or_else(|| BaseSurface::of(canvas));
+    let env = FillEnv { slope_ref: typical_slope(canvas), median_relief, base };
     let side = tile_side(w, h, p);
     let (tw, th) = (w.div_ceil(side), h.div_ceil(side));
     let core = |t: usize| {

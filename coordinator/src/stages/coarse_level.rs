@@ -1,0 +1,146 @@
+//! Synthesis by levels (Lefebvre and Hoppe 2005's pyramid; texture-synthesis's image
+//! pyramid; seed 003's coarse-to-fine solve): on a large output, the whole job is
+//! first run at a coarser level — the sketch and the exemplars downsampled by
+//! [`FACTOR`], the same stages (large-scale target, feature placement, hole filling,
+//! sketch fit, breaching) on a canvas [`FACTOR`] times smaller each way — and the
+//! coarse terrain then becomes the surface every patch of the output level is merged
+//! on (`BaseSurface::coarse_terrain`): each patch keeps only its detail below a
+//! Gaussian of σ = `DETAIL_BAND` coarse cells, the coarse terrain under the same blur
+//! gives everything larger — the two bands of a Laplacian pyramid, so the output's
+//! spectrum is the exemplars' at both scales (with the patches' whole relief about a
+//! plane on the coarse terrain instead, the 8-to-32-cell band held both levels' power
+//! and the roughness ratio fell to 0.5 on a 4096² job).
+//!
+//! **Why.** A patch is 64 cells; on a 4096² sketch a 40-cell ridge stroke asks for a
+//! landform four times wider, and the smooth target of `large_scale` alone gives it
+//! height but no form: the strokes read as rails on a plain. At the coarse level the
+//! same stroke is 10 cells wide and a patch covers 256 output cells, so real
+//! exemplars give the massif its spurs, side valleys and drainage; the output level
+//! adds the exemplars' own detail on top. Coarse patches are real terrain at a
+//! coarser cell size (the shards prepare their exemplars at both levels: the shard
+//! contract's `LevelSpec`s), so the coarse form is as realistic as the fine detail.
+//!
+//! **When.** Only where the coarse canvas is at least [`MIN_COARSE_PATCHES`] patches a
+//! side and the exemplars' cell size is known (to resample them): 2048² and larger at
+//! the default patch. Smaller outputs keep the single level.
+//!
+//! Deterministic like the output level: the coarse stages are the same stages, with
+//! the same seed.
+
+use crate::canvas::Canvas;
+use crate::stages::base_surface::BaseSurface;
+use crate::stages::drainage::{breach_depressions, ridge_crests};
+use crate::stages::large_scale::{self, LargeScale, LibraryForm};
+use crate::stages::sketch::{self, SketchFeatures, SketchInput, StrokeSketch};
+use ridgeline_terrain::grid::Heightfield;
+
+/// The coarse level's cells are this many output cells a side.
+pub const FACTOR: usize = 4;
+
+/// The coarse canvas must be at least this many patches a side.
+pub const MIN_COARSE_PATCHES: usize = 8;
+
+/// Thinnest stroke on the coarse sketch, cells (a thinner one would not rasterise as
+/// a line).
+const MIN_COARSE_WIDTH: f32 = 1.5;
+
+/// The coarse factor for an output of `w` x `h` at patches of `patch`, if it gets a
+/// coarse level (see the module header).
+pub fn factor_for(w: usize, h: usize, patch: usize, cell_known: bool) -> Option<usize> {
+    (cell_known && w.min(h) / FACTOR >= MIN_COARSE_PATCHES * patch).then_some(FACTOR)
+}
+
+/// The sketch at the coarse level: the strokes scaled by `1 / f`, none thinner than a
+/// line, their elevations kept.
+pub fn coarse_sketch(sk: &SketchFeatures, f: usize) -> SketchInput {
+    let (cw, ch) = (sk.width.div_ceil(f), sk.height.div_ceil(f));
+    let fine = StrokeSketch { width: sk.width, height: sk.height, strokes: sk.strokes.clone() };
+    let mut strokes = fine.scaled_to(cw, ch);
+    for s in &mut strokes {
+        s.width = s.width.max(MIN_COARSE_WIDTH);
+        if let Some(ws) = &mut s.widths {
+            ws.iter_mut().for_each(|w| *w = w.max(MIN_COARSE_WIDTH));
+        }
+    }
+    SketchInput::Strokes { sketch: StrokeSketch { width: cw, height: ch, strokes }, size: (cw, ch) }
+}
+
+/// The coarse level's sketch, its large-scale plan, and the canvas it is synthesised
+/// on (the stages in between are run by the pipeline, as at the output level).
+pub struct CoarseJob {
+    pub factor: usize,
+    pub sketch: SketchFeatures,
+    pub form: LargeScale,
+    pub canvas: Canvas,
+}
+
+impl CoarseJob {
+    /// Prepares the coarse level of `sk` for patches of `patch`, from the library as
+    /// the coarse level's sources read it.
+    pub fn new(sk: &SketchFeatures, f: usize, lib: &LibraryForm, patch: usize, asked: Option<[f32; 2]>) -> CoarseJob {
+        let (sketch, _) = sketch::analyse_input(&coarse_sketch(sk, f), patch);
+        let form = large_scale::plan(&sketch, lib, patch, asked);
+        let mut canvas = Canvas::new(sketch.width, sketch.height, patch);
+        canvas.levels_given = true;
+        CoarseJob { factor: f, sketch, form, canvas }
+    }
+
+    /// After the coarse canvas is filled and fitted: its depressions breached, and the
+    /// output level's form — the coarse terrain as the surface patches are merged on,
+    /// with the coarse plan's range and statistics.
+    pub fn finish(mut self, patch: usize) -> (LargeScale, Heightfield) {
+        breach_depressions(&mut self.canvas.heights, &ridge_crests(&self.sketch), patch);
+        let h = self.canvas.heights;
+        let target = BaseSurface::coarse_terrain(self.factor, h.width, h.height, h.data.clone());
+        (LargeScale { target, ..self.form }, h)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::stages::sketch::analyse;
+    use ridgeline_terrain::grid::Grid;
+    use ridgeline_terrain::FeatureKind;
+
+    #[test]
+    fn only_large_outputs_get_a_coarse_level() {
+        assert_eq!(factor_for(2048, 2048, 64, true), Some(4));
+        assert_eq!(factor_for(4096, 2000, 64, true), None, "the short side decides");
+        assert_eq!(factor_for(1024, 1024, 32, true), Some(4));
+        assert_eq!(factor_for(8192, 8192, 64, false), None, "exemplars of unknown cell size cannot be resampled");
+    }
+
+    #[test]
+    fn the_coarse_sketch_keeps_every_stroke_as_a_line() {
+        // a 3-cell ridge and a 40-cell valley on 512²: both are lines at 128²
+        let mut s = Grid::new(512, 512, 128u8);
+        for x in 40..470 {
+            for d in 0..3 {
+                s.set(x, 100 + d, 255);
+            }
+            for d in 0..40 {
+                s.set(x, 300 + d, 0);
+            }
+        }
+        let sk = analyse(&s, 32);
+        let SketchInput::Strokes { sketch, size } = coarse_sketch(&sk, 4) else { panic!("strokes") };
+        assert_eq!(size, (128, 128));
+        let (coarse, _) = sketch::analyse_input(&SketchInput::Strokes { sketch, size }, 32);
+        for (kind, y) in [(FeatureKind::Ridge, 25usize), (FeatureKind::Valley, 80)] {
+            let g = coarse.graph(kind);
+            let cells: Vec<(usize, usize)> = g.pixels().map(|p| g.xy(p)).collect();
+            let xs = cells.iter().map(|c| c.0);
+            let (lo, hi) = (xs.clone().min().unwrap(), xs.max().unwrap());
+            assert!(lo <= 15 && hi >= 110, "{kind:?} spans {lo}..{hi} of 10..117");
+            // on the line, but for the skeleton's spur into a wide stroke's end cap
+            let off: Vec<_> = cells.iter().filter(|c| c.1.abs_diff(y) > 2 && c.0 > lo + 6 && c.0 + 6 < hi).collect();
+            assert!(off.is_empty(), "{kind:?} at y ≈ {y}: {off:?}");
+        }
+        // the wide valley stays wide, the thin ridge thin
+        let width = |k: FeatureKind| {
+            coarse.strokes.iter().filter(|s| s.pen == sketch::Pen::Draw(k)).map(|s| s.width).fold(0f32, f32::max)
+        };
+        assert!(width(FeatureKind::Valley) > 6.0 && width(FeatureKind::Ridge) < 2.0);
+    }
+}
