@@ -321,7 +321,7 @@ const FORM_LIBRARY: [&str; 8] =
 
 fn form_run(dir: &std::path::Path, range: Option<[f32; 2]>) -> Option<ridgeline::evaluation::Evaluation> {
     let data = shared_data()?;
-    let only = FORM_LIBRARY.iter().map(|s| s.to_string()).collect();
+    let only = FORM_LIBRARY.iter().map(|s| format!("{s}.png")).collect();
     let out = session(&drawn_form_sketch(dir), &data.join("dems"), &dir.join("cache"))
         .exemplars(ridgeline::stages::exemplars::Exemplars::Library { path: data.join("dems"), only: Some(only) })
         .patch_size(32)

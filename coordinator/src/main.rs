@@ -197,6 +197,7 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
         .sketch(sketch)
         .elevation_range(range)
         .large_scale(!a.no_large_scale)
+        .erode(a.erode)
         .exemplars(Exemplars::library(&a.exemplars))
         .backend(backend)
         .patch_size(a.patch_size)

@@ -28,6 +28,8 @@ pub enum Stage {
     HoleFilling,
     /// The final deformation that puts crests on ridge lines and floors on valleys.
     SketchFit,
+    /// Fluvial erosion, when asked for (`--erode`); progress counts its steps.
+    Erosion,
     /// Depressions breached so the valleys drain, and the elevation range held.
     Conditioning,
     /// Realism figures against the sources (when a report is asked for).
@@ -38,7 +40,7 @@ pub enum Stage {
 
 impl Stage {
     /// Every stage, in order.
-    pub const ALL: [Stage; 11] = [
+    pub const ALL: [Stage; 12] = [
         Stage::Exemplars,
         Stage::SketchFeatures,
         Stage::LargeScale,
@@ -47,6 +49,7 @@ impl Stage {
         Stage::FeaturePlacement,
         Stage::HoleFilling,
         Stage::SketchFit,
+        Stage::Erosion,
         Stage::Conditioning,
         Stage::Evaluation,
         Stage::Write,
@@ -63,6 +66,7 @@ impl Stage {
             Stage::FeaturePlacement => "feature_placement",
             Stage::HoleFilling => "hole_filling",
             Stage::SketchFit => "sketch_fit",
+            Stage::Erosion => "erosion",
             Stage::Conditioning => "conditioning",
             Stage::Evaluation => "evaluation",
             Stage::Write => "write",
@@ -80,6 +84,7 @@ impl Stage {
             Stage::FeaturePlacement => "feature placement",
             Stage::HoleFilling => "hole filling",
             Stage::SketchFit => "sketch fit",
+            Stage::Erosion => "erosion",
             Stage::Conditioning => "drainage and range",
             Stage::Evaluation => "evaluation",
             Stage::Write => "writing",

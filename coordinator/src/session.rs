@@ -214,6 +214,12 @@ impl SessionBuilder {
         self.settings.elevation_range = range;
         self
     }
+    /// Fluvial erosion of the finished terrain (stream power, Braun and Willett 2013)
+    /// at `strength` in (0, 10] (`None`, the default: none).
+    pub fn erode(mut self, strength: Option<f32>) -> Self {
+        self.settings.erode = strength;
+        self
+    }
     /// Largest round-2 batch of non-interacting user patches (0, the default: no
     /// limit; 1: one at a time). The output does not depend on it.
     pub fn max_batch(mut self, n: usize) -> Self {

@@ -280,6 +280,9 @@ fn colliding_outputs_and_bad_settings_are_refused_before_any_work() {
             vec!["--out".into(), out_tif.clone(), "--sea-level".into(), "100".into(), "--relief".into(), "-50".into()],
             "elevation range",
         ),
+        (vec!["--out".into(), out_tif.clone(), "--erode".into(), "0".into()], "erosion strength"),
+        (vec!["--out".into(), out_tif.clone(), "--erode".into(), "nan".into()], "erosion strength"),
+        (vec!["--out".into(), out_tif.clone(), "--erode".into(), "11".into()], "erosion strength"),
     ];
     for (extra, want) in cases {
         let o = bin().args(["synth", "--sketch", &sk, "--exemplars", &libs, "--no-cache"]).args(&extra).output().unwrap();
@@ -513,11 +516,12 @@ fn vector_sketches_and_elevation_ranges_are_checked_and_honoured() {
             {"pen": "valley", "width": 3, "points": [[10, 95], [150, 90]], "widths": [3, 5]}]}"#,
     )
     .unwrap();
+    let lib = small_library(&d, &data);
     let o = bin()
         .args(["synth", "--sketch"])
         .arg(&sketch)
         .arg("--exemplars")
-        .arg(small_library(&d, &data))
+        .arg(&lib)
         .args(["--patch-size", "32", "--no-cache", "--elevation-range", "-200:1800", "--out"])
         .arg(&out)
         .output()
@@ -527,4 +531,29 @@ fn vector_sketches_and_elevation_ranges_are_checked_and_honoured() {
     assert_eq!((h.width, h.height), (160, 128));
     let (lo, hi) = h.finite_range().unwrap();
     assert!((lo + 200.0).abs() < 0.5 && (hi - 1800.0).abs() < 0.5, "{lo}..{hi}");
+
+    // the same with erosion: rivers cut down, the range asked for still spanned, the
+    // report says what erosion did
+    let eroded = d.join("eroded.tif");
+    let report = d.join("eroded.json");
+    let o = bin()
+        .args(["synth", "--sketch"])
+        .arg(&sketch)
+        .arg("--exemplars")
+        .arg(&lib)
+        .args(["--patch-size", "32", "--no-cache", "--elevation-range", "-200:1800", "--erode", "3", "--report"])
+        .arg(&report)
+        .arg("--out")
+        .arg(&eroded)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let e = ridgeline_terrain::outputs::read_heightfield(&eroded, 8192).unwrap();
+    let (lo, hi) = e.finite_range().unwrap();
+    assert!((lo + 200.0).abs() < 0.5 && (hi - 1800.0).abs() < 0.5, "eroded {lo}..{hi}");
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+    assert!(r["erosion"]["cells_lowered"].as_u64().unwrap() > 0, "{}", r["erosion"]);
+    assert!(r["stages"].to_string().contains("erosion"), "the erosion stage is timed");
+    let changed = h.data.iter().zip(&e.data).filter(|(a, b)| (*a - *b).abs() > 1.0).count();
+    assert!(changed > 0 && changed < h.data.len(), "erosion changed {changed} of {} cells", h.data.len());
 }

@@ -159,6 +159,11 @@ pub struct SynthArgs {
     /// matches to, as before).
     #[arg(long)]
     pub no_large_scale: bool,
+    /// Carve the drainage deeper by fluvial erosion (the stream-power law, Braun and
+    /// Willett 2013's implicit scheme) at this strength, above 0 and at most 10 (1: the
+    /// large rivers cut down by about half their drop per step, gullies barely).
+    #[arg(long, value_name = "STRENGTH")]
+    pub erode: Option<f32>,
     /// Output heightfield: .tif (32-bit float metres), .png (16-bit) or .r16 (raw 16-bit
     /// little-endian); 16-bit outputs get a .json sidecar mapping samples to metres.
     #[arg(long)]

@@ -19,11 +19,12 @@
 //!    (`ShardScorer::score_fill`), tile by tile in colour phases, until no cell is empty;
 //! 7. [`fit_to_sketch`] — a last smooth deformation puts crests on ridge lines and
 //!    floors on valley lines (`--no-sketch-fit` skips it);
-//! 8. conditioning — depressions breached so the valleys drain
+//! 8. [`erode`] — fluvial erosion, when asked for (`--erode STRENGTH`);
+//! 9. conditioning — depressions breached so the valleys drain
 //!    ([`drainage::breach_depressions`]), the elevation range held
 //!    ([`large_scale::hold_range`]).
 //!
-//! Stages 3 and 8 are the coarse-to-fine form (`--no-large-scale` leaves them out).
+//! Stages 3 and 9 are the coarse-to-fine form (`--no-large-scale` leaves them out).
 //!
 //! The session then evaluates the terrain and writes the outputs (`crate::session`).
 //!
@@ -46,6 +47,7 @@ use crate::canvas::Canvas;
 use crate::progress::Stage;
 use crate::stages::coarse_level::{self, CoarseJob};
 use crate::stages::drainage::{breach_depressions, ridge_crests};
+use crate::stages::erosion::{erode, STEPS as EROSION_STEPS};
 use crate::stages::exemplars::{self, Backend, Fleet, LoadSettings, COARSE_LEVEL};
 use crate::stages::feature_placement::{place_features, PlacementSettings};
 use crate::stages::hole_filling::{fill_holes, FillSettings};
@@ -185,6 +187,13 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
         false => FitStats::default(),
     };
 
+    let erosion = match set.erode {
+        Some(strength) => Some(run.run(Stage::Erosion, |cx| {
+            Ok(erode(&mut canvas.heights, strength, |s| cx.progress(s as u64, EROSION_STEPS as u64)))
+        })?),
+        None => None,
+    };
+
     let conditioning = match &form {
         Some(form) => Some(run.run(Stage::Conditioning, |cx| {
             Ok(cx.install(|| {
@@ -209,6 +218,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
         filling,
         sketch_fit,
         conditioning,
+        erosion,
     });
     let out = SynthOutput { sketch_image, features_only, sketch: sk, user_patches: ups, canvas, form };
     Ok((out, report))

@@ -7,6 +7,7 @@ use super::settings::JobSettings;
 use crate::canvas::Canvas;
 use crate::evaluation::quality::{adherence, seam_score, Adherence, SeamScore};
 use crate::stages::drainage::DrainageStats;
+use crate::stages::erosion::ErosionStats;
 use crate::stages::feature_placement::PlacementStats;
 use crate::stages::hole_filling::FillStats;
 use crate::stages::large_scale::FormStats;
@@ -54,6 +55,9 @@ pub struct SynthReport {
     /// the end and the elevation range held (absent with `--no-large-scale`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub large_scale: Option<Conditioning>,
+    /// What fluvial erosion did, when asked for (`--erode`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub erosion: Option<ErosionStats>,
     /// Sketch adherence of the result, per kind: sampled centre-line points whose
     /// cross profile at patch/4 has the kind's shape (a crest for ridges, a floor for
     /// valleys).
@@ -86,6 +90,7 @@ pub struct JobResults<'a> {
     pub filling: FillStats,
     pub sketch_fit: FitStats,
     pub conditioning: Option<Conditioning>,
+    pub erosion: Option<ErosionStats>,
 }
 
 /// What the large-scale stages did.
@@ -126,6 +131,7 @@ impl SynthReport {
             exemplars,
             sketch_fit: r.sketch_fit,
             large_scale: r.conditioning,
+            erosion: r.erosion,
             adherence: sk.lines.map(|kind, g| adherence(&canvas.heights, g, kind, set.patch as f32 / 4.0, 4, 8, &bounds)),
             seams: seam_score(&canvas.heights, &canvas.provenance.data),
             shards: ShardReport::of_shards(r.shards, r.times_before),

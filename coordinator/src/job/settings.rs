@@ -42,6 +42,8 @@ pub struct JobSettings {
     pub large_scale: bool,
     /// The output's elevation range, metres (`None`: within its sources').
     pub elevation_range: Option<[f32; 2]>,
+    /// Fluvial erosion's strength (`stages::erosion`; `None`, the default: none).
+    pub erode: Option<f32>,
 }
 
 impl Default for JobSettings {
@@ -61,6 +63,7 @@ impl Default for JobSettings {
             fit_sketch: true,
             large_scale: true,
             elevation_range: None,
+            erode: None,
         }
     }
 }
@@ -89,6 +92,12 @@ impl JobSettings {
                 return Err(SynthError::Config(format!(
                     "elevation range {lo}:{hi}: give two finite heights within ±20000 m, the lower first"
                 )));
+            }
+        }
+        if let Some(s) = self.erode {
+            let max = crate::stages::erosion::MAX_STRENGTH;
+            if !(s.is_finite() && s > 0.0 && s <= max) {
+                return Err(SynthError::Config(format!("erosion strength {s}: give a number above 0, at most {max}")));
             }
         }
         let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);

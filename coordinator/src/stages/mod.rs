@@ -10,6 +10,7 @@
 pub mod base_surface;
 pub mod coarse_level;
 pub mod drainage;
+pub mod erosion;
 pub mod exemplars;
 pub mod feature_placement;
 pub mod hole_filling;
