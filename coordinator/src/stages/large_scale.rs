@@ -29,9 +29,10 @@
 //! **Range.** The output stays within its sources' elevation range (the lowest and
 //! highest cell of the sources that supplied it), or within the range asked for
 //! (`--elevation-range`): targets are kept half a patch's relief inside it, and
-//! [`hold_range`] ends the job by compressing whatever still lies beyond, smoothly and
-//! monotonically (so crests stay crests and drainage stays drainage). A range asked
-//! for with no stroke elevations is filled exactly: the terrain is stretched to it.
+//! [`hold_range`] ends the job by mapping the terrain affinely into it when it
+//! overshoots (so crests stay crests, drainage stays drainage, and every slope is
+//! scaled by the same factor). A range asked for with no stroke elevations is filled
+//! exactly: the terrain is stretched to it.
 
 use crate::canvas::Canvas;
 use crate::solvers::membrane::Membrane;
@@ -437,9 +438,12 @@ impl<'a> SegmentIndex<'a> {
 }
 
 /// Holds the finished terrain within the form's range: stretched to fill it (a range
-/// asked for without stroke elevations), else whatever lies beyond the range's
-/// outer tenths is compressed into it smoothly and monotonically (`x / (1 + x)` beyond
-/// a knee). Returns the largest change, metres.
+/// asked for without stroke elevations), else, where it overshoots, mapped affinely
+/// onto the part of the range it reached (an end beyond the range pulled to the
+/// range's end, the other end kept). One factor for every slope: a saturating squash of
+/// the cells beyond the range's outer tenths, as this first did, pressed whole regions
+/// that had drifted far below into plains (3.8% flat landforms on a 4096² job against
+/// the sources' 0.36%). Returns the largest change, metres.
 pub fn hold_range(h: &mut Heightfield, form: &LargeScale) -> f32 {
     let Some((min, max)) = h.finite_range() else { return 0.0 };
     let [lo, hi] = form.range;
@@ -451,16 +455,9 @@ pub fn hold_range(h: &mut Heightfield, form: &LargeScale) -> f32 {
         let k = (hi - lo) / (max - min);
         h.data.iter_mut().for_each(|v| *v = lo + (*v - min) * k);
     } else if min < lo || max > hi {
-        let knee = 0.1 * (hi - lo);
-        let (klo, khi) = (lo + knee, hi - knee);
-        let squash = |u: f32| u / (1.0 + u);
-        h.data.iter_mut().for_each(|v| {
-            if *v > khi {
-                *v = khi + knee * squash((*v - khi) / knee);
-            } else if *v < klo {
-                *v = klo - knee * squash((klo - *v) / knee);
-            }
-        });
+        let (to_lo, to_hi) = (min.max(lo), max.min(hi));
+        let k = (to_hi - to_lo) / (max - min);
+        h.data.iter_mut().for_each(|v| *v = (to_lo + (*v - min) * k).clamp(to_lo, to_hi));
     }
     h.data.iter().zip(&before).map(|(a, b)| (a - b).abs()).filter(|d| d.is_finite()).fold(0f32, f32::max)
 }
@@ -556,15 +553,22 @@ mod tests {
     }
 
     #[test]
-    fn the_range_is_held_smoothly_or_filled_when_asked() {
+    fn the_range_is_held_by_one_factor_or_filled_when_asked() {
         let sk = analyse(&sketch(), 32);
         let mut f = plan(&sk, &library(), 32, None);
         let mut h = Grid::from_vec(100, 1, (0..100).map(|i| -500.0 + 60.0 * i as f32).collect());
         hold_range(&mut h, &f);
         let (lo, hi) = h.finite_range().unwrap();
         assert!(lo >= 0.0 && hi <= 4000.0, "{lo}..{hi}");
-        assert!(h.data.windows(2).all(|w| w[1] > w[0]), "monotone: nothing changes order");
-        assert_eq!(h.data[40], -500.0 + 60.0 * 40.0, "the middle of the range is left alone");
+        assert!(lo.abs() < 1e-3 && (hi - 4000.0).abs() < 1e-2, "the overshooting ends pulled to the range's: {lo}..{hi}");
+        // every step scaled by one factor: no part of the slope is flattened
+        let steps: Vec<f32> = h.data.windows(2).map(|w| w[1] - w[0]).collect();
+        assert!(steps.iter().all(|d| (d - steps[0]).abs() < 1e-3 && *d > 0.0), "{steps:?}");
+        // only one end beyond: the other stays where it was
+        let mut h = Grid::from_vec(50, 1, (0..50).map(|i| 1000.0 + 100.0 * i as f32).collect());
+        hold_range(&mut h, &f);
+        assert_eq!(h.data[0], 1000.0);
+        assert!((h.data[49] - 4000.0).abs() < 1e-2);
         f.range = [100.0, 900.0];
         f.stretch = true;
         let mut h = Grid::from_vec(3, 1, vec![5.0, 10.0, 25.0]);
