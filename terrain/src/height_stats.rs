@@ -24,49 +24,73 @@ pub struct HeightStats {
 
 impl HeightStats {
     /// The statistics of `h` (voids left out; all zero for a heightfield of voids).
+    /// Quantiles by selection, relief by a min/max pyramid over aligned windows (each
+    /// side's windows are 2 x 2 of the previous side's): the same values as sorting
+    /// and scanning every window, in a few passes over the cells.
     pub fn of(h: &Heightfield) -> HeightStats {
         let mut v: Vec<f32> = h.data.iter().copied().filter(|x| x.is_finite()).collect();
         if v.is_empty() {
             return HeightStats::default();
         }
-        v.sort_by(f32::total_cmp);
-        let q = |f: f64| v[((v.len() - 1) as f64 * f).round() as usize];
-        let mut relief = Vec::new();
-        for &s in &RELIEF_SCALES {
-            let s = s as usize;
-            if s > h.width || s > h.height {
-                break;
-            }
-            let mut ranges = Vec::new();
-            for by in 0..h.height / s {
-                for bx in 0..h.width / s {
-                    let (mut lo, mut hi, mut void) = (f32::INFINITY, f32::NEG_INFINITY, false);
-                    for y in by * s..(by + 1) * s {
-                        for &c in &h.data[y * h.width + bx * s..y * h.width + (bx + 1) * s] {
-                            void |= !c.is_finite();
-                            lo = lo.min(c);
-                            hi = hi.max(c);
-                        }
-                    }
-                    if !void {
-                        ranges.push(hi - lo);
-                    }
-                }
-            }
-            if !ranges.is_empty() {
-                ranges.sort_by(f32::total_cmp);
-                relief.push((s as u32, ranges[ranges.len() / 2]));
-            }
-        }
-        HeightStats { min: q(0.0), p05: q(0.05), median: q(0.5), p95: q(0.95), max: q(1.0), relief }
+        let last = v.len() - 1;
+        let mut q = |f: f64| *v.select_nth_unstable_by((last as f64 * f).round() as usize, f32::total_cmp).1;
+        let (min, p05, median, p95, max) = (q(0.0), q(0.05), q(0.5), q(0.95), q(1.0));
+        HeightStats { min, p05, median, p95, max, relief: relief_by_scale(h) }
     }
-
     /// The relief at a window side of `cells`, interpolated log-log between the
     /// measured sides (and extrapolated with the slope of the nearest two); `None`
     /// without any measurement.
     pub fn relief_at(&self, cells: f32) -> Option<f32> {
         relief_at(&self.relief, cells)
     }
+}
+
+/// (side, median window range) for each side of [`RELIEF_SCALES`] the heightfield
+/// holds: windows aligned to multiples of the side, those holding a void left out.
+fn relief_by_scale(h: &Heightfield) -> Vec<(u32, f32)> {
+    // (lowest, highest, any void) of each window of the current side, row by row
+    let first = RELIEF_SCALES[0] as usize;
+    let (mut bw, mut bh) = (h.width / first, h.height / first);
+    let mut blocks = vec![(f32::INFINITY, f32::NEG_INFINITY, false); bw * bh];
+    for y in 0..bh * first {
+        let row = &h.data[y * h.width..y * h.width + bw * first];
+        for (bx, cells) in row.chunks_exact(first).enumerate() {
+            let b = &mut blocks[(y / first) * bw + bx];
+            for &c in cells {
+                b.2 |= !c.is_finite();
+                b.0 = b.0.min(c);
+                b.1 = b.1.max(c);
+            }
+        }
+    }
+    let mut relief = Vec::new();
+    for (k, &s) in RELIEF_SCALES.iter().enumerate() {
+        if s as usize > h.width || s as usize > h.height {
+            break;
+        }
+        if k > 0 {
+            let (nw, nh) = (bw / 2, bh / 2);
+            blocks = (0..nw * nh)
+                .map(|i| {
+                    let (x, y) = (2 * (i % nw), 2 * (i / nw));
+                    [(x, y), (x + 1, y), (x, y + 1), (x + 1, y + 1)].iter().fold(
+                        (f32::INFINITY, f32::NEG_INFINITY, false),
+                        |a, &(x, y)| {
+                            let b = blocks[y * bw + x];
+                            (a.0.min(b.0), a.1.max(b.1), a.2 | b.2)
+                        },
+                    )
+                })
+                .collect();
+            (bw, bh) = (nw, nh);
+        }
+        let mut ranges: Vec<f32> = blocks.iter().filter(|b| !b.2).map(|b| b.1 - b.0).collect();
+        if !ranges.is_empty() {
+            let mid = ranges.len() / 2;
+            relief.push((s, *ranges.select_nth_unstable_by(mid, f32::total_cmp).1));
+        }
+    }
+    relief
 }
 
 /// Log-log interpolation in a table of (side, relief); see [`HeightStats::relief_at`].
@@ -103,5 +127,51 @@ mod tests {
         assert!(r > 62.0 && r < 126.0, "{r}");
         assert!(s.relief_at(200.0).unwrap() > 126.0, "extrapolated upwards");
         assert_eq!(HeightStats::of(&Grid::new(4, 4, f32::NAN)), HeightStats::default());
+    }
+
+    #[test]
+    fn the_pyramid_gives_every_window_scan_s_values() {
+        // rough heights with voids, sides that are not multiples of the windows
+        let (w, hh) = (301, 170);
+        let mut seed = 7u64;
+        let data: Vec<f32> = (0..w * hh)
+            .map(|i| {
+                seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                if i % 997 == 0 {
+                    f32::NAN
+                } else {
+                    (seed >> 40) as f32 * 0.01 + (i % w) as f32
+                }
+            })
+            .collect();
+        let h = Grid::from_vec(w, hh, data);
+        let got = HeightStats::of(&h);
+        // the plain way: every aligned window of each side scanned, ranges sorted
+        let mut want = Vec::new();
+        for &s in RELIEF_SCALES.iter().filter(|&&s| s as usize <= w.min(hh)) {
+            let s = s as usize;
+            let mut ranges = Vec::new();
+            for by in 0..hh / s {
+                for bx in 0..w / s {
+                    let cells: Vec<f32> = (by * s..(by + 1) * s)
+                        .flat_map(|y| (bx * s..(bx + 1) * s).map(move |x| (x, y)))
+                        .map(|(x, y)| h.get(x, y))
+                        .collect();
+                    if cells.iter().all(|c| c.is_finite()) {
+                        let lo = cells.iter().copied().fold(f32::INFINITY, f32::min);
+                        ranges.push(cells.iter().copied().fold(f32::NEG_INFINITY, f32::max) - lo);
+                    }
+                }
+            }
+            ranges.sort_by(f32::total_cmp);
+            if !ranges.is_empty() {
+                want.push((s as u32, ranges[ranges.len() / 2]));
+            }
+        }
+        assert_eq!(got.relief, want);
+        let mut v: Vec<f32> = h.data.iter().copied().filter(|x| x.is_finite()).collect();
+        v.sort_by(f32::total_cmp);
+        let q = |f: f64| v[((v.len() - 1) as f64 * f).round() as usize];
+        assert_eq!([got.min, got.p05, got.median, got.p95, got.max], [q(0.0), q(0.05), q(0.5), q(0.95), q(1.0)]);
     }
 }

@@ -66,11 +66,14 @@ fn priority_flood(h: &Heightfield, mut reached: impl FnMut(usize, usize), mut se
     let mut done = vec![false; n];
     let mut heap: BinaryHeap<Reverse<u64>> = BinaryHeap::new();
     let mut pit: VecDeque<u32> = VecDeque::new();
+    // a terrain without voids (the usual case) needs no look at each cell's neighbours
+    let any_void = h.data.iter().any(|v| !v.is_finite());
     for i in 0..n {
         let (x, y) = (i % w, i / w);
         let edge = x == 0 || y == 0 || x + 1 == w || y + 1 == hh;
-        let void = !h.data[i].is_finite();
-        let beside_void = !void
+        let void = any_void && !h.data[i].is_finite();
+        let beside_void = any_void
+            && !void
             && !edge
             && D8.iter().any(|&(dx, dy)| !h.data[(y as i64 + dy) as usize * w + (x as i64 + dx) as usize].is_finite());
         if void {
