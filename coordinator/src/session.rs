@@ -395,7 +395,8 @@ impl Session {
             #[allow(unreachable_patterns)]
             _ => 0,
         };
-        let est = crate::job::memory_budget::check(sketch, width, height, library_cells, self.settings.max_memory)
+        let evaluated = self.outputs.as_ref().is_some_and(|o| o.report.is_some());
+        let est = crate::job::memory_budget::check(sketch, width, height, library_cells, evaluated, self.settings.max_memory)
             .map_err(SynthError::Memory)?;
         tracing::info!(estimated_peak_mb = est.total() >> 20, "memory estimate");
         Ok(())

@@ -445,7 +445,7 @@ fn a_job_over_its_memory_budget_is_refused_before_any_work_saying_what_it_needs(
             .arg(outs.join("t.png")),
     );
     assert!(!ok);
-    assert!(err.contains("big.png") && err.contains("20000 x 20000") && err.contains("needs about 4.5 GiB"), "{err}");
+    assert!(err.contains("big.png") && err.contains("20000 x 20000") && err.contains("needs about 6.8 GiB"), "{err}");
     assert!(err.contains("--max-memory budget (1.0 GiB)"), "{err}");
     assert!(t.elapsed().as_secs() < 10, "refused only after work");
     assert!(snapshot(&outs) == before);

@@ -450,16 +450,17 @@ pub fn hold_range(h: &mut Heightfield, form: &LargeScale) -> f32 {
     if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) {
         return 0.0;
     }
-    let before = h.data.clone();
-    if form.stretch && max > min {
-        let k = (hi - lo) / (max - min);
-        h.data.iter_mut().for_each(|v| *v = lo + (*v - min) * k);
+    // an affine map moves each cell by at most the larger of its ends' moves
+    let (to_lo, to_hi) = if form.stretch && max > min {
+        (lo, hi)
     } else if min < lo || max > hi {
-        let (to_lo, to_hi) = (min.max(lo), max.min(hi));
-        let k = (to_hi - to_lo) / (max - min);
-        h.data.iter_mut().for_each(|v| *v = (to_lo + (*v - min) * k).clamp(to_lo, to_hi));
-    }
-    h.data.iter().zip(&before).map(|(a, b)| (a - b).abs()).filter(|d| d.is_finite()).fold(0f32, f32::max)
+        (min.max(lo), max.min(hi))
+    } else {
+        return 0.0;
+    };
+    let k = if max > min { (to_hi - to_lo) / (max - min) } else { 0.0 };
+    h.data.iter_mut().for_each(|v| *v = (to_lo + (*v - min) * k).clamp(to_lo, to_hi));
+    (to_lo - min).abs().max((to_hi - max).abs())
 }
 
 /// The target over the whole output, for the debug view.
