@@ -147,8 +147,7 @@ fn a_stroked_sketch_becomes_a_terrain_with_every_download_and_a_ridge_under_the_
     assert!(img.width().max(img.height()) <= 96 && img.width() > 8, "a thumbnail");
 
     let (w, h) = (192usize, 160usize);
-    let body =
-        serde_json::json!({ "sketch": { "strokes": strokes(w, h) }, "seed": 3, "patch_size": 32, "tiles": 96, "debug": true });
+    let body = serde_json::json!({ "sketch": { "strokes": strokes(w, h) }, "seed": 3, "patch_size": 32, "tiles": 96, "debug": true, "erode": 2.0 });
     let (code, st) = post(&format!("{}/api/jobs", s.url), &body, None);
     assert_eq!(code, 202, "{st}");
     let id = st["id"].as_str().unwrap().to_string();
@@ -156,7 +155,7 @@ fn a_stroked_sketch_becomes_a_terrain_with_every_download_and_a_ridge_under_the_
     assert_eq!(fin["state"], "done", "{fin}");
     assert!(placed > 4, "placed patches were streamed: {placed}");
     let stages: Vec<&str> = fin["stages"].as_array().unwrap().iter().map(|s| s["stage"].as_str().unwrap()).collect();
-    for want in ["exemplars", "feature_placement", "hole_filling", "write"] {
+    for want in ["exemplars", "feature_placement", "hole_filling", "erosion", "write"] {
         assert!(stages.contains(&want), "stage {want} in {stages:?}");
     }
     let files: Vec<&str> = fin["files"].as_array().unwrap().iter().map(|f| f.as_str().unwrap()).collect();
@@ -187,6 +186,7 @@ fn a_stroked_sketch_becomes_a_terrain_with_every_download_and_a_ridge_under_the_
     .unwrap();
     assert_eq!(report["width"], w);
     assert!(report["evaluation"]["landform_distance"].is_number(), "the report has the realism figures");
+    assert!(report["erosion"]["cells_lowered"].as_u64().unwrap() > 0, "erosion asked for ran: {}", report["erosion"]);
     let resp = ureq::get(&format!("{}/api/jobs/{id}/heights?max=64", s.url)).call().unwrap();
     let hw: usize = resp.header("x-width").unwrap().parse().unwrap();
     let hh: usize = resp.header("x-height").unwrap().parse().unwrap();
@@ -237,6 +237,9 @@ fn bad_requests_get_clear_json_errors_and_the_token_is_required() {
             "pen width",
         ),
         (serde_json::json!({ "sketch": "nothing" }), "not valid JSON for a job"),
+        (serde_json::json!({ "sketch": { "strokes": strokes(64, 64) }, "elevation_range": [900.0, 100.0] }), "the lower first"),
+        (serde_json::json!({ "sketch": { "strokes": strokes(64, 64) }, "erode": 0.0 }), "erosion strength"),
+        (serde_json::json!({ "sketch": { "strokes": strokes(64, 64) }, "erode": 50.0 }), "at most 10"),
     ];
     for (body, want) in cases {
         let (code, e) = post(&jobs, &body, tok);

@@ -73,6 +73,10 @@ pub struct JobRequest {
     /// default: within its sources' range.
     #[serde(default)]
     pub elevation_range: Option<[f32; 2]>,
+    /// Fluvial erosion's strength, above 0 and at most 10 (`synth --erode`); default
+    /// none.
+    #[serde(default)]
+    pub erode: Option<f32>,
 }
 
 fn default_patch() -> usize {
@@ -137,6 +141,12 @@ fn parse_request(body: &[u8], max_side: u32) -> Result<(JobRequest, SketchSource
             return Err(bad(format!("elevation_range [{lo}, {hi}]: give two finite heights, the lower first")));
         }
     }
+    if let Some(s) = req.erode {
+        let max = crate::stages::erosion::MAX_STRENGTH;
+        if !(s.is_finite() && s > 0.0 && s <= max) {
+            return Err(bad(format!("erode {s}: give an erosion strength above 0, at most {max}")));
+        }
+    }
     Ok((req, sketch))
 }
 
@@ -167,7 +177,8 @@ pub async fn submit(State(st): State<Arc<AppState>>, body: Bytes) -> Result<Resp
                     debug_dir: req.debug.then(|| dir.to_path_buf()),
                 })
                 .keep_features_only(req.debug)
-                .elevation_range(req.elevation_range);
+                .elevation_range(req.elevation_range)
+                .erode(req.erode);
             if let (Some(w), Some(h)) = (req.width, req.height) {
                 b = b.size(w, h);
             }
