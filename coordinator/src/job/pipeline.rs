@@ -133,16 +133,15 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
                 progress: &|_, _, _| {},
                 cancel: cx.cancel,
             };
-            let target = c.form.target.clone();
             place_features(&mut c.canvas, &ups, shards, &settings, cx.pool)?;
             let empty = c.canvas.empty as u64;
             let on_fill = |left: u64, _: &Canvas| cx.progress(empty - left, empty);
-            let fill = FillSettings { level: COARSE_LEVEL, seed: set.seed, base: Some(&target) };
+            let fill = FillSettings { level: COARSE_LEVEL, seed: set.seed, base: Some(&c.form.target) };
             fill_holes(&mut c.canvas, shards, &fill, cx.pool, &on_fill, cx.cancel)?;
             if set.fit_sketch {
                 cx.install(|| fit_to_sketch(&mut c.canvas.heights, &c.sketch, p));
             }
-            Ok(cx.install(|| c.finish(p)).0)
+            Ok(cx.install(|| c.finish(p)))
         })?),
         (form, _, _) => form,
     };

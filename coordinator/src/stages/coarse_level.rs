@@ -32,7 +32,6 @@ use crate::stages::base_surface::BaseSurface;
 use crate::stages::drainage::{breach_depressions, ridge_crests};
 use crate::stages::large_scale::{self, LargeScale, LibraryForm};
 use crate::stages::sketch::{self, SketchFeatures, SketchInput, StrokeSketch};
-use ridgeline_terrain::grid::Heightfield;
 
 /// The coarse level's cells are this many output cells a side.
 pub const FACTOR: usize = 4;
@@ -88,11 +87,11 @@ impl CoarseJob {
     /// After the coarse canvas is filled and fitted: its depressions breached, and the
     /// output level's form — the coarse terrain as the surface patches are merged on,
     /// with the coarse plan's range and statistics.
-    pub fn finish(mut self, patch: usize) -> (LargeScale, Heightfield) {
+    pub fn finish(mut self, patch: usize) -> LargeScale {
         breach_depressions(&mut self.canvas.heights, &ridge_crests(&self.sketch), patch);
         let h = self.canvas.heights;
-        let target = BaseSurface::coarse_terrain(self.factor, h.width, h.height, h.data.clone());
-        (LargeScale { target, ..self.form }, h)
+        let target = BaseSurface::coarse_terrain(self.factor, h.width, h.height, h.data);
+        LargeScale { target, ..self.form }
     }
 }
 

@@ -35,6 +35,7 @@
 //! cell index is fixed; they are only looked up, never iterated).
 
 use crate::solvers::hydrology::{water_levels, D8};
+use crate::solvers::total_order::Total;
 use crate::stages::sketch::SketchFeatures;
 use ridgeline_terrain::grid::Heightfield;
 use ridgeline_terrain::FeatureKind;
@@ -190,8 +191,8 @@ fn local_depth(h: &Heightfield, pit: usize, max_cells: usize) -> f32 {
     let mut spill = z;
     let mut seen: FxHashMap<usize, ()> = FxHashMap::default();
     seen.insert(pit, ());
-    let mut heap = BinaryHeap::from([Reverse((Ord32(z), pit))]);
-    while let Some(Reverse((Ord32(v), c))) = heap.pop() {
+    let mut heap = BinaryHeap::from([Reverse((Total(z), pit))]);
+    while let Some(Reverse((Total(v), c))) = heap.pop() {
         let (x, y) = (c % w, c / w);
         if c != pit && v < z {
             return spill - z;
@@ -202,7 +203,7 @@ fn local_depth(h: &Heightfield, pit: usize, max_cells: usize) -> f32 {
         }
         for j in neighbours(c, w, hh) {
             if h.data[j].is_finite() && seen.insert(j, ()).is_none() {
-                heap.push(Reverse((Ord32(h.data[j]), j)));
+                heap.push(Reverse((Total(h.data[j]), j)));
             }
         }
     }
@@ -270,8 +271,8 @@ fn breach_path(h: &Heightfield, pit: usize, keep: &[bool], reach: usize, max_cut
     let (px, py) = ((pit % w) as i64, (pit / w) as i64);
     let mut best: FxHashMap<usize, (f32, u32, usize)> = FxHashMap::default();
     best.insert(pit, (0.0, 0, usize::MAX)); // cost, steps, from
-    let mut heap = BinaryHeap::from([Reverse((Ord32(0.0), pit))]);
-    while let Some(Reverse((Ord32(cost), c))) = heap.pop() {
+    let mut heap = BinaryHeap::from([Reverse((Total(0.0), pit))]);
+    while let Some(Reverse((Total(cost), c))) = heap.pop() {
         let (cc, steps, _) = best[&c];
         if cost > cc {
             continue;
@@ -307,7 +308,7 @@ fn breach_path(h: &Heightfield, pit: usize, keep: &[bool], reach: usize, max_cut
             let nc = cost + step;
             if best.get(&j).is_none_or(|&(old, _, _)| nc < old) {
                 best.insert(j, (nc, steps + 1, c));
-                heap.push(Reverse((Ord32(nc), j)));
+                heap.push(Reverse((Total(nc), j)));
             }
         }
     }
@@ -376,16 +377,6 @@ fn carve(h: &mut Heightfield, path: &[usize], keep: &[bool], wall: f32) -> (usiz
         }
     }
     (lowered, deepest)
-}
-
-#[derive(Clone, Copy, PartialEq, PartialOrd)]
-struct Ord32(f32);
-impl Eq for Ord32 {}
-#[allow(clippy::derive_ord_xor_partial_ord)]
-impl Ord for Ord32 {
-    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
-        self.0.total_cmp(&o.0)
-    }
 }
 
 #[cfg(test)]

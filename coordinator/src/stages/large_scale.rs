@@ -36,6 +36,7 @@
 
 use crate::canvas::Canvas;
 use crate::solvers::membrane::Membrane;
+use crate::solvers::total_order::Total;
 use crate::stages::base_surface::BaseSurface;
 use crate::stages::sketch::{SketchFeatures, Stroke};
 use ridgeline_terrain::grid::Heightfield;
@@ -302,10 +303,10 @@ fn drainage_base(
         let (x, y) = (i % cw, i / cw);
         if x == 0 || y == 0 || x + 1 == cw || y + 1 == ch {
             *b = 0.0;
-            heap.push(Reverse((OrdF64(0.0), i)));
+            heap.push(Reverse((Total(0.0), i)));
         }
     }
-    while let Some(Reverse((OrdF64(d), c))) = heap.pop() {
+    while let Some(Reverse((Total(d), c))) = heap.pop() {
         if d > best[c] {
             continue;
         }
@@ -318,21 +319,11 @@ fn drainage_base(
             if nd < best[j] {
                 best[j] = nd;
                 parent[j] = Some(c);
-                heap.push(Reverse((OrdF64(nd), j)));
+                heap.push(Reverse((Total(nd), j)));
             }
         }
     }
     (best, parent)
-}
-
-#[derive(Clone, Copy, PartialEq, PartialOrd)]
-struct OrdF64(f64);
-impl Eq for OrdF64 {}
-#[allow(clippy::derive_ord_xor_partial_ord)]
-impl Ord for OrdF64 {
-    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
-        self.0.total_cmp(&o.0)
-    }
 }
 
 /// Cells of the target's grid that ridge centre lines close off from the border: a
