@@ -206,6 +206,21 @@ fn a_worker_refuses_to_serve_a_public_address_without_a_token() {
         .unwrap();
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("token"));
+    // an empty token is no token, by the flag or the environment
+    for (flag, env) in [(Some(""), None), (None, Some("")), (Some("  "), None)] {
+        let mut c = std::process::Command::new(ridgeline_tests::ridgeline_bin());
+        c.args(["worker", "--listen", "0.0.0.0:0"]).env_remove("RIDGELINE_TOKEN");
+        if let Some(t) = flag {
+            c.args(["--token", t]);
+        }
+        if let Some(t) = env {
+            c.env("RIDGELINE_TOKEN", t);
+        }
+        let o = c.output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains("token is empty"), "{flag:?} {env:?}: {err}");
+        assert!(!String::from_utf8_lossy(&o.stdout).contains("listening"));
+    }
 }
 
 #[test]
@@ -353,6 +368,34 @@ fn malformed_requests_get_errors_and_the_worker_keeps_serving() {
         });
         let e = c.missing_exemplars(v1::MissingRequest { content_hashes: vec!["../../etc/passwd".into()] }).await.unwrap_err();
         assert_eq!(e.code(), tonic::Code::InvalidArgument);
+        // a 1 MiB value is quoted by its start and length, so the caller reads why
+        let huge = "z".repeat(1 << 20);
+        let e = c.missing_exemplars(v1::MissingRequest { content_hashes: vec![huge.clone()] }).await.unwrap_err();
+        assert_eq!(e.code(), tonic::Code::InvalidArgument, "{}", e.message());
+        assert!(
+            e.message().contains("is not a content hash") && e.message().len() < 300,
+            "{}",
+            &e.message()[..200.min(e.message().len())]
+        );
+        let e = c
+            .score(tokio_stream::iter(vec![v1::ScoreRequest {
+                shard_key: huge,
+                block_index: 0,
+                k: 5,
+                queries: vec![],
+                level: 0,
+            }]))
+            .await
+            .unwrap()
+            .into_inner()
+            .message()
+            .await
+            .unwrap_err();
+        assert!(
+            e.message().contains("is not loaded") && e.message().len() < 300,
+            "{}",
+            &e.message()[..200.min(e.message().len())]
+        );
         let level = |patch| v1::Level { patch, out_cell: None };
         let load = |levels: Vec<v1::Level>, exemplars| v1::LoadShardRequest { shard_key: "s".into(), exemplars, levels };
         for (levels, what) in [(vec![level(7)], "an odd patch"), (vec![], "no level"), (vec![level(64); 9], "too many levels")] {

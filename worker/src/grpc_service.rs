@@ -79,7 +79,7 @@ fn find_shard(shards: &ShardTable, key: &str) -> Result<Arc<InProcessShard>, Sta
         .iter()
         .find(|(k, _)| k == key)
         .map(|(_, l)| l.shard.clone())
-        .ok_or_else(|| Status::not_found(format!("shard '{key}' is not loaded on this worker")))
+        .ok_or_else(|| Status::not_found(format!("shard '{}' is not loaded on this worker", echo(key))))
 }
 
 /// The service state.
@@ -117,9 +117,9 @@ impl WorkerService {
         if !is_content_hash(&e.content_hash) {
             return Err(Status::invalid_argument("bad content hash"));
         }
-        let path = self
-            .exemplar_path(&e.content_hash)
-            .ok_or_else(|| Status::failed_precondition(format!("exemplar {} ({}) not uploaded", e.name, e.content_hash)))?;
+        let path = self.exemplar_path(&e.content_hash).ok_or_else(|| {
+            Status::failed_precondition(format!("exemplar {} ({}) not uploaded", echo(&e.name), echo(&e.content_hash)))
+        })?;
         Ok(Some(path))
     }
 }
@@ -137,7 +137,7 @@ fn load_reply(shard: &InProcessShard) -> v1::LoadShardReply {
 /// The source an exemplar reference names, from its stored bytes at `path` (stored
 /// kinds) or its recipe (generators).
 fn exemplar_from_wire(e: &v1::ExemplarRef, path: Option<&Path>, max_side: u32) -> Result<Arc<dyn ExemplarSource>, Status> {
-    let bad = |m: String| Status::invalid_argument(format!("exemplar {} ({}): {m}", e.source, e.name));
+    let bad = |m: String| Status::invalid_argument(format!("exemplar {} ({}): {m}", e.source, echo(&e.name)));
     Ok(match (e.kind(), path) {
         (v1::ExemplarKind::DemFile, Some(path)) => {
             if !(e.to_metres.is_finite() && e.to_metres > 0.0) {
@@ -163,6 +163,19 @@ fn shard_status(e: ShardError) -> Status {
         ShardError::BadRequest(m) => Status::invalid_argument(m),
         ShardError::Unavailable(m) => Status::unavailable(m),
         ShardError::Cancelled => Status::cancelled("the job was cancelled"),
+    }
+}
+
+/// Most characters of a caller's value an error echoes back.
+pub const MAX_ECHO_CHARS: usize = 80;
+
+/// A caller's value as an error quotes it: whole when short, else its start and its
+/// length, so a status never grows with what was sent (a 1 MiB hash answered with a
+/// 1 MiB message fails as "metadata size exceeds hard limit" instead of saying why).
+pub fn echo(value: &str) -> String {
+    match value.char_indices().nth(MAX_ECHO_CHARS) {
+        None => value.to_string(),
+        Some((end, _)) => format!("{}… ({} bytes)", &value[..end], value.len()),
     }
 }
 
@@ -237,7 +250,7 @@ impl Worker for WorkerService {
             let mut missing = Vec::new();
             for h in r.content_hashes {
                 if !is_content_hash(&h) {
-                    return Err(Status::invalid_argument(format!("'{h}' is not a content hash")));
+                    return Err(Status::invalid_argument(format!("'{}' is not a content hash", echo(&h))));
                 }
                 if self.exemplar_path(&h).is_none() {
                     missing.push(h);
@@ -258,7 +271,7 @@ impl Worker for WorkerService {
                 return Err(Status::invalid_argument("bad content hash"));
             }
             if !EXTENSIONS.contains(&ext.as_str()) {
-                return Err(Status::invalid_argument(format!("extension '{ext}' is not a DEM format")));
+                return Err(Status::invalid_argument(format!("extension '{}' is not a DEM format", echo(&ext))));
             }
             if total > self.cfg.max_exemplar_bytes {
                 return Err(Status::invalid_argument(format!(
@@ -511,6 +524,10 @@ pub async fn serve(
     shutdown: impl std::future::Future<Output = ()> + Send,
 ) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
     let token = service.cfg.token.clone();
+    if let Some(t) = &token {
+        // an empty token would otherwise be checked as one (and let nobody in)
+        ridgeline_ops::auth::parse_token(t)?;
+    }
     let cfg_limits = service.cfg.connections;
     let svc =
         WorkerServer::new(service).max_decoding_message_size(MAX_MESSAGE_BYTES).max_encoding_message_size(MAX_MESSAGE_BYTES);
