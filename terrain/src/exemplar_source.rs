@@ -30,6 +30,12 @@ pub trait ExemplarSource: Send + Sync + std::fmt::Debug {
     fn cells_at(&self, out_cell: Option<f32>) -> u64;
     /// Its heights in metres at `out_cell` (voids `NaN`), refused beyond `max_side`.
     fn heights(&self, out_cell: Option<f32>, max_side: u32) -> Result<Heightfield>;
+    /// Judges it as the reader would and returns its cells at `out_cell`: an error
+    /// where the reader refuses it. By reading its heights, unless a kind knows a way
+    /// that does not hold them (a PNG file: decoded a row at a time).
+    fn verified_cells(&self, out_cell: Option<f32>, max_side: u32) -> Result<u64> {
+        self.heights(out_cell, max_side).map(|h| (h.width * h.height) as u64)
+    }
     /// A digest of everything that determines [`ExemplarSource::heights`] at
     /// `out_cell`: equal for equal heights, here and on a worker (the feature cache is
     /// keyed by it).
@@ -94,6 +100,14 @@ impl ExemplarSource for DemFile {
     }
     fn heights(&self, out_cell: Option<f32>, max_side: u32) -> Result<Heightfield> {
         load_exemplar(&self.spec, out_cell, max_side)
+    }
+    fn verified_cells(&self, out_cell: Option<f32>, max_side: u32) -> Result<u64> {
+        let is_png = self.spec.path.extension().is_some_and(|e| e.eq_ignore_ascii_case("png"));
+        if !is_png {
+            return self.heights(out_cell, max_side).map(|h| (h.width * h.height) as u64);
+        }
+        crate::io::verify_png_file(&self.spec.path, max_side)?;
+        Ok(self.spec.cells_at(out_cell))
     }
     fn identity(&self, out_cell: Option<f32>) -> Result<String> {
         let bytes = std::fs::read(&self.spec.path)

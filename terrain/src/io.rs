@@ -17,21 +17,133 @@ fn decode_err(path: &Path, e: impl std::fmt::Display) -> TerrainError {
     TerrainError::Decode { path: path.to_path_buf(), message: e.to_string() }
 }
 
-fn read_bytes(path: &Path) -> Result<Vec<u8>> {
-    std::fs::read(path).map_err(|source| TerrainError::Read { path: path.to_path_buf(), cause: source.into() })
+/// Most bytes a text input may hold (a vector sketch, a manifest, a `dems.csv`, a
+/// sidecar or tile index, a workers file).
+pub const MAX_TEXT_BYTES: u64 = 256 << 20;
+
+/// Most bytes a raster input (a sketch or a DEM, in any format) may hold when no side
+/// is longer than `max_side`: 24 bytes a cell covers an ASCII grid's numbers, and
+/// more than covers an uncompressed 16-bit RGBA PNG (8) or a float TIFF (4).
+pub fn raster_byte_limit(max_side: u32) -> u64 {
+    (max_side as u64).pow(2).saturating_mul(24).saturating_add(16 << 20)
 }
 
-/// Decodes image bytes (`path` names them in errors). The size is checked from the
-/// header, before any pixel buffer is allocated.
-pub fn decode_image(path: &Path, bytes: &[u8], max_side: u32) -> Result<image::DynamicImage> {
+/// Reads a user's input file whole, refusing before reading what is not a regular
+/// file (a device such as `/dev/zero`, a pipe, a folder: endless or not a file) and a
+/// file over `limit` bytes (by its size, and by counting, should it grow meanwhile).
+pub fn read_input(path: &Path, limit: u64) -> Result<Vec<u8>> {
+    use std::io::Read;
+    let err = |source: std::io::Error| TerrainError::Read { path: path.to_path_buf(), cause: source.into() };
+    let invalid = |message: String| TerrainError::Invalid { path: path.to_path_buf(), message };
+    let f = std::fs::File::open(path).map_err(err)?;
+    let meta = f.metadata().map_err(err)?;
+    if !meta.is_file() {
+        return Err(invalid("not a regular file (a device, a pipe or a folder): give a file".into()));
+    }
+    if meta.len() > limit {
+        return Err(invalid(format!("{} bytes, more than the {limit} an input of this kind may hold", meta.len())));
+    }
+    let mut bytes = Vec::with_capacity(meta.len() as usize);
+    f.take(limit + 1).read_to_end(&mut bytes).map_err(err)?;
+    if bytes.len() as u64 > limit {
+        return Err(invalid(format!("grew past the {limit} bytes an input of this kind may hold while it was read")));
+    }
+    Ok(bytes)
+}
+
+/// [`read_input`] of a UTF-8 text file of at most [`MAX_TEXT_BYTES`].
+pub fn read_text_input(path: &Path) -> Result<String> {
+    String::from_utf8(read_input(path, MAX_TEXT_BYTES)?)
+        .map_err(|e| TerrainError::Invalid { path: path.to_path_buf(), message: format!("not UTF-8 text: {e}") })
+}
+
+fn read_bytes(path: &Path, max_side: u32) -> Result<Vec<u8>> {
+    read_input(path, raster_byte_limit(max_side))
+}
+
+/// Most bytes of pixels per byte of a PNG: deflate's largest compression ratio is
+/// about 1032 to 1 (a 258-byte match in two bits), so a file shorter than its
+/// pixels over this cannot hold them.
+pub const MAX_PNG_RATIO: u64 = 1100;
+
+/// What an image's header says, judged before any pixel buffer exists.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ImageHeader {
+    pub width: u32,
+    pub height: u32,
+    /// Bytes a decoded pixel takes (1 for 8-bit grey, 8 for 16-bit RGBA).
+    pub bytes_per_pixel: u8,
+}
+
+impl ImageHeader {
+    /// Bytes of the decoded pixels.
+    pub fn decoded_bytes(&self) -> u64 {
+        self.width as u64 * self.height as u64 * self.bytes_per_pixel as u64
+    }
+}
+
+/// Judges the header of the image file at `path` from its first bytes and its length
+/// (without reading its pixels).
+pub fn judge_image_file(path: &Path, max_side: u32) -> Result<ImageHeader> {
+    use std::io::Read;
+    let err = |source: std::io::Error| TerrainError::Read { path: path.to_path_buf(), cause: source.into() };
+    let f = std::fs::File::open(path).map_err(err)?;
+    let len = f.metadata().map_err(err)?.len();
+    let mut head = Vec::new();
+    f.take(4 << 20).read_to_end(&mut head).map_err(err)?;
+    judge_image_header(path, &head, len, max_side)
+}
+
+/// Decodes the PNG at `path` row by row, keeping one row, to judge it whole without
+/// holding its pixels: its header as [`judge_image_file`] does, then every row of
+/// pixel data present and valid. Returns its header. Memory: one row; time: a decode.
+pub fn verify_png_file(path: &Path, max_side: u32) -> Result<ImageHeader> {
+    let header = judge_image_file(path, max_side)?;
+    let f = std::fs::File::open(path).map_err(|source| TerrainError::Read { path: path.to_path_buf(), cause: source.into() })?;
+    let mut reader = png::Decoder::new(std::io::BufReader::new(f)).read_info().map_err(|e| decode_err(path, e))?;
+    let mut rows = 0u32;
+    while reader.next_row().map_err(|e| decode_err(path, e))?.is_some() {
+        rows += 1;
+    }
+    if rows < header.height {
+        return Err(decode_err(path, format!("{rows} of {} rows of pixels", header.height)));
+    }
+    Ok(header)
+}
+
+/// Reads and judges an image's header, as the decoder's first step: refused when a
+/// side is 0 or over `max_side`, or when the file is too short to hold the pixels it
+/// claims ([`MAX_PNG_RATIO`]) — a 100-byte file saying 200000 x 200000 is corrupt,
+/// not a large exemplar to plan memory for.
+/// `bytes` is the file or its start (at least up to its first pixel data); `file_len`
+/// the whole file's length.
+pub fn judge_image_header(path: &Path, bytes: &[u8], file_len: u64, max_side: u32) -> Result<ImageHeader> {
+    use image::ImageDecoder;
     let reader = image::ImageReader::new(std::io::Cursor::new(bytes)).with_guessed_format().map_err(|e| decode_err(path, e))?;
-    let (w, h) = reader.into_dimensions().map_err(|e| decode_err(path, e))?;
+    let decoder = reader.into_decoder().map_err(|e| decode_err(path, e))?;
+    let (w, h) = decoder.dimensions();
+    let header = ImageHeader { width: w, height: h, bytes_per_pixel: decoder.color_type().bytes_per_pixel() };
     if w == 0 || h == 0 {
         return Err(TerrainError::Invalid { path: path.to_path_buf(), message: "image has zero width or height".into() });
     }
     if w > max_side || h > max_side {
         return Err(TerrainError::TooLarge { path: path.to_path_buf(), width: w, height: h, limit: max_side });
     }
+    if header.decoded_bytes() > file_len.saturating_mul(MAX_PNG_RATIO) {
+        return Err(TerrainError::Invalid {
+            path: path.to_path_buf(),
+            message: format!(
+                "the header claims {w} x {h} pixels, which {file_len} bytes of file cannot hold: the file is truncated or corrupt"
+            ),
+        });
+    }
+    Ok(header)
+}
+
+/// Decodes image bytes (`path` names them in errors). The header is judged first
+/// ([`judge_image_header`]), before any pixel buffer is allocated.
+pub fn decode_image(path: &Path, bytes: &[u8], max_side: u32) -> Result<image::DynamicImage> {
+    let ImageHeader { width: w, height: h, .. } = judge_image_header(path, bytes, bytes.len() as u64, max_side)?;
     let mut reader =
         image::ImageReader::new(std::io::Cursor::new(bytes)).with_guessed_format().map_err(|e| decode_err(path, e))?;
     let mut limits = image::Limits::default();
@@ -55,7 +167,7 @@ pub fn decode_dem_png(path: &Path, bytes: &[u8], max_side: u32) -> Result<Grid<f
 /// Reads a grayscale DEM image (16- or 8-bit PNG) as raw sample values.
 /// The caller applies the vertical unit.
 pub fn read_dem_png(path: &Path, max_side: u32) -> Result<Grid<f32>> {
-    decode_dem_png(path, &read_bytes(path)?, max_side)
+    decode_dem_png(path, &read_bytes(path, max_side)?, max_side)
 }
 
 /// Decodes a sketch as 8-bit values: 128 background, 255 ridge, 0 valley (and the
@@ -116,7 +228,7 @@ pub fn sketch_pixel(r: u8, g: u8, b: u8, a: u8) -> Option<u8> {
 
 /// Reads a sketch as 8-bit luminance.
 pub fn read_sketch(path: &Path, max_side: u32) -> Result<Grid<u8>> {
-    decode_sketch(path, &read_bytes(path)?, max_side)
+    decode_sketch(path, &read_bytes(path, max_side)?, max_side)
 }
 
 /// Writes `bytes` to `path` atomically (temporary file in the same folder, fsync, rename;

@@ -26,10 +26,11 @@ impl ExemplarSpec {
 
     /// The exemplar's area in cells once resampled to the output cell size `out_cell`
     /// (its own cells where either cell size is unknown), from its header where the
-    /// format has one (PNG), else by reading it; 1 where it cannot be read. An
-    /// estimate for planning: shard balancing and memory budgets.
+    /// format has one (PNG; judged as the reader judges it), else by reading it; 0
+    /// where the reader refuses it (it will be skipped). An estimate for planning:
+    /// shard balancing and memory budgets.
     pub fn cells_at(&self, out_cell: Option<f32>) -> u64 {
-        let (w, h) = self.header_size().unwrap_or((1, 1));
+        let Some((w, h)) = self.header_size() else { return 0 };
         let f = match (self.cell_size_m.or_else(|| crate::dem_formats::probe_cell_size(&self.path)), out_cell) {
             (Some(s), Some(o)) if o > 0.0 => (s / o) as f64,
             _ => 1.0,
@@ -40,9 +41,8 @@ impl ExemplarSpec {
     fn header_size(&self) -> Option<(usize, usize)> {
         let ext = self.path.extension()?.to_string_lossy().to_ascii_lowercase();
         if ext == "png" {
-            let r = image::ImageReader::open(&self.path).ok()?.with_guessed_format().ok()?;
-            let (w, h) = r.into_dimensions().ok()?;
-            return Some((w as usize, h as usize));
+            let h = crate::io::judge_image_file(&self.path, crate::io::DEFAULT_MAX_SIDE).ok()?;
+            return Some((h.width as usize, h.height as usize));
         }
         let d = crate::dem_formats::read_dem(&self.path, None, crate::io::DEFAULT_MAX_SIDE).ok()?;
         Some((d.heights.width, d.heights.height))
@@ -82,8 +82,7 @@ struct Manifest {
 /// (relative to the manifest), optional `cell_size_m`, `unit` (metres|feet) and
 /// `nodata`. Every listed file must exist.
 pub fn read_manifest(path: &Path) -> Result<Vec<ExemplarSpec>> {
-    let text =
-        std::fs::read_to_string(path).map_err(|source| TerrainError::Read { path: path.to_path_buf(), cause: source.into() })?;
+    let text = crate::io::read_text_input(path)?;
     let bad = |m: String| TerrainError::Invalid { path: path.to_path_buf(), message: m };
     let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
     let m: Manifest = match ext.as_str() {
@@ -131,8 +130,7 @@ pub fn scan_library(dir: &Path) -> Result<Vec<ExemplarSpec>> {
     let csv_path = dir.join("dems.csv");
     let mut meta: std::collections::BTreeMap<String, (Option<f32>, f32)> = Default::default();
     if csv_path.exists() {
-        let text = std::fs::read_to_string(&csv_path)
-            .map_err(|source| TerrainError::Read { path: csv_path.clone(), cause: source.into() })?;
+        let text = crate::io::read_text_input(&csv_path)?;
         let mut lines = text.lines();
         let header: Vec<String> = lines.next().unwrap_or("").split(',').map(|s| s.trim().to_string()).collect();
         let col = |name: &str| header.iter().position(|h| h == name);

@@ -167,7 +167,7 @@ pub fn write_heightfield_with_cell(path: &Path, h: &Heightfield, cell: Option<f3
 
 fn read_sidecar(path: &Path) -> Result<Png16Sidecar> {
     let sp = path.with_extension("json");
-    let bytes = std::fs::read(&sp).map_err(|source| TerrainError::Read { path: sp.clone(), cause: source.into() })?;
+    let bytes = crate::io::read_input(&sp, crate::io::MAX_TEXT_BYTES)?;
     serde_json::from_slice(&bytes).map_err(|e| TerrainError::Invalid { path: sp, message: format!("bad sidecar: {e}") })
 }
 
@@ -175,8 +175,7 @@ fn read_sidecar(path: &Path) -> Result<Png16Sidecar> {
 pub fn read_heightfield(path: &Path, max_side: u32) -> Result<Heightfield> {
     match ext_of(path).as_str() {
         "tif" | "tiff" => {
-            let bytes =
-                std::fs::read(path).map_err(|source| TerrainError::Read { path: path.to_path_buf(), cause: source.into() })?;
+            let bytes = crate::io::read_input(path, crate::io::raster_byte_limit(max_side))?;
             Ok(parse_tiff(path, &bytes, max_side)?.heights)
         }
         "png" => {
@@ -186,8 +185,7 @@ pub fn read_heightfield(path: &Path, max_side: u32) -> Result<Heightfield> {
         }
         "r16" => {
             let side = read_sidecar(path)?;
-            let bytes =
-                std::fs::read(path).map_err(|source| TerrainError::Read { path: path.to_path_buf(), cause: source.into() })?;
+            let bytes = crate::io::read_input(path, crate::io::raster_byte_limit(max_side))?;
             if bytes.len() != side.width * side.height * 2 {
                 return Err(TerrainError::Invalid {
                     path: path.to_path_buf(),
@@ -246,8 +244,16 @@ pub struct TilePlan {
 
 impl TilePlan {
     pub fn new(out: &Path, width: usize, height: usize, n: usize) -> Result<TilePlan> {
-        if n < 2 {
-            return Err(TerrainError::Invalid { path: out.to_path_buf(), message: format!("tile size {n} must be at least 2") });
+        // bounded by the terrain before it sizes anything (a tile's buffer, the files)
+        let longest = width.max(height);
+        if n < 2 || n > longest {
+            return Err(TerrainError::Invalid {
+                path: out.to_path_buf(),
+                message: format!(
+                    "tiles of {n} samples: a tile needs 2 to {} samples a side (the longer side of the {width} x {height} terrain)",
+                    longest.max(2)
+                ),
+            });
         }
         let stride = n - 1;
         Ok(TilePlan {
@@ -327,8 +333,7 @@ pub fn write_tiles(out: &Path, h: &Heightfield, n: usize, cell: Option<f32>) -> 
 
 /// Reassembles a terrain from a tile index written by [`write_tiles`].
 pub fn read_tiles(index_path: &Path, max_side: u32) -> Result<Heightfield> {
-    let bytes = std::fs::read(index_path)
-        .map_err(|source| TerrainError::Read { path: index_path.to_path_buf(), cause: source.into() })?;
+    let bytes = crate::io::read_input(index_path, crate::io::MAX_TEXT_BYTES)?;
     let idx: TileIndex = serde_json::from_slice(&bytes)
         .map_err(|e| TerrainError::Invalid { path: index_path.to_path_buf(), message: format!("bad tile index: {e}") })?;
     crate::dem_formats::check_size(index_path, idx.width as u64, idx.height as u64, max_side)?;

@@ -169,8 +169,8 @@ pub const MAX_LEVELS: usize = 8;
 impl LevelSpec {
     /// Refuses a level no shard can be prepared at.
     pub fn check(&self) -> Result<(), String> {
-        if self.patch < 8 || self.patch > 512 || !self.patch.is_multiple_of(2) {
-            return Err(format!("patch size {} must be even and within 8..=512", self.patch));
+        if self.patch < 16 || self.patch > 512 || !self.patch.is_multiple_of(2) {
+            return Err(format!("patch size {} must be even and within 16..=512", self.patch));
         }
         if let Some(c) = self.out_cell {
             if !(c.is_finite() && c > 0.0) {

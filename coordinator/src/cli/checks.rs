@@ -12,7 +12,7 @@ pub fn worker_urls(a: &SynthArgs) -> Result<Vec<String>> {
 pub fn parse_worker_urls(workers: &[String], workers_file: Option<&std::path::Path>) -> Result<Vec<String>> {
     let mut urls = workers.to_vec();
     if let Some(f) = workers_file {
-        let text = std::fs::read_to_string(f).with_context(|| format!("{}: cannot read workers file", f.display()))?;
+        let text = ridgeline_terrain::io::read_text_input(f).context("cannot read the workers file")?;
         urls.extend(text.lines().map(|l| l.split('#').next().unwrap_or("").trim().to_string()).filter(|l| !l.is_empty()));
         if urls.is_empty() {
             bail!("{}: no worker URL in the file", f.display());

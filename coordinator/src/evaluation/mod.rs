@@ -230,11 +230,11 @@ pub const PROVENANCE_CELLS: &str = "provenance_cells.u32";
 /// Reads a debug folder's `provenance.json` (placements) and the cells file beside it,
 /// for a terrain of `cells` cells.
 pub fn read_provenance(json: &std::path::Path, cells: usize) -> Result<Provenance, String> {
-    let bytes = std::fs::read(json).map_err(|e| format!("{}: {e}", json.display()))?;
+    let bytes = ridgeline_terrain::io::read_input(json, ridgeline_terrain::io::MAX_TEXT_BYTES).map_err(|e| e.to_string())?;
     let placements: Vec<PlacedPatch> =
         serde_json::from_slice(&bytes).map_err(|e| format!("{}: not a provenance.json of ridgeline ({e})", json.display()))?;
     let raw_path = json.with_file_name(PROVENANCE_CELLS);
-    let raw = std::fs::read(&raw_path).map_err(|e| format!("{}: {e}", raw_path.display()))?;
+    let raw = ridgeline_terrain::io::read_input(&raw_path, cells as u64 * 4 + 4096).map_err(|e| e.to_string())?;
     if raw.len() != cells * 4 {
         return Err(format!(
             "{}: {} bytes, but the terrain has {cells} cells (4 bytes each): from another job?",

@@ -83,8 +83,7 @@ impl OutputFiles {
             out.extend(debug::DEBUG_FILES.iter().map(|f| ("the debug folder".to_string(), d.join(f))));
         }
         if let Some(n) = self.tiles {
-            let plan = TilePlan::new(&self.terrain, width, height, n)
-                .map_err(|_| invalid(&self.terrain, format!("tiles of {n}: a tile needs at least 2 x 2 samples")))?;
+            let plan = TilePlan::new(&self.terrain, width, height, n)?;
             let files = plan.file_count();
             if files > MAX_TILE_FILES {
                 return Err(invalid(

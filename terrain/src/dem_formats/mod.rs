@@ -12,7 +12,7 @@ mod hgt;
 mod raster;
 mod tiff_dem;
 
-use crate::error::{Result, TerrainError};
+use crate::error::Result;
 use std::path::Path;
 
 pub use ascii_grid::{encode_ascii_grid, parse_ascii_grid};
@@ -77,7 +77,7 @@ pub fn probe_cell_size(path: &Path) -> Option<f32> {
 /// the file itself declares.
 pub fn read_dem(path: &Path, nodata: Option<f32>, max_side: u32) -> Result<DemRaster> {
     let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
-    let read = || std::fs::read(path).map_err(|source| TerrainError::Read { path: path.to_path_buf(), cause: source.into() });
+    let read = || crate::io::read_input(path, crate::io::raster_byte_limit(max_side));
     let mut r = match ext.as_str() {
         "png" => DemRaster { heights: crate::io::read_dem_png(path, max_side)?, cell_size_m: None },
         "tif" | "tiff" => parse_tiff(path, &read()?, max_side)?,
@@ -106,6 +106,7 @@ pub fn read_dem(path: &Path, nodata: Option<f32>, max_side: u32) -> Result<DemRa
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::error::TerrainError;
     use crate::grid::Grid;
 
     fn tmp(name: &str) -> std::path::PathBuf {
