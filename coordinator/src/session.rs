@@ -32,7 +32,7 @@ use crate::outputs::OutputFiles;
 use crate::progress::{CancelToken, JobProgress, Progress, Stage};
 use crate::stages::exemplars::common_cell_size;
 pub use crate::stages::exemplars::{Backend, Exemplars};
-use crate::stages::sketch::SketchInput;
+use crate::stages::sketch::{check_side, SketchInput};
 pub use crate::stages::sketch::{Pen, Stroke, StrokeSketch};
 pub use ridgeline_terrain::exemplar_source::{DemFile, ExemplarSource, InMemory};
 use ridgeline_terrain::grid::{Grid, Heightfield};
@@ -148,7 +148,7 @@ impl SessionBuilder {
         self.settings.seed = seed;
         self
     }
-    /// Patch side in cells (even, 8 to 512; default 64).
+    /// Patch side in cells (even, 16 to 512; default 64).
     pub fn patch_size(mut self, p: usize) -> Self {
         self.settings.patch = p;
         self
@@ -251,14 +251,15 @@ impl SessionBuilder {
         }
         let (sketch, sketch_path) = match self.sketch {
             None => return invalid("no sketch given".into()),
-            Some(SketchSource::File(p)) => (SketchInput::Raster(ridgeline_terrain::io::read_sketch(&p, cfg.max_side)?), Some(p)),
-            Some(SketchSource::Image(g)) => {
-                if g.width == 0 || g.height == 0 || g.width > cfg.max_side as usize || g.height > cfg.max_side as usize {
-                    return invalid(format!(
-                        "a sketch of {} x {}: each side must be within 1..={}",
-                        g.width, g.height, cfg.max_side
-                    ));
+            Some(SketchSource::File(p)) => {
+                let g = ridgeline_terrain::io::read_sketch(&p, cfg.max_side)?;
+                if let Err(m) = check_side("a sketch", g.width, g.height, cfg.max_side) {
+                    return invalid(format!("{}: {m}", p.display()));
                 }
+                (SketchInput::Raster(g), Some(p))
+            }
+            Some(SketchSource::Image(g)) => {
+                check_side("a sketch", g.width, g.height, cfg.max_side).map_err(SessionError::Invalid)?;
                 (SketchInput::Raster(g), None)
             }
             Some(SketchSource::Strokes(s)) => {
@@ -269,14 +270,17 @@ impl SessionBuilder {
                 (SketchInput::Strokes { sketch: s, size }, None)
             }
         };
+        if let Some((w, h)) = self.size {
+            check_side("an output", w, h, cfg.max_side).map_err(SessionError::Invalid)?;
+        }
         let sketch = match (self.size, sketch) {
-            (Some((w, h)), _) if w < 16 || h < 16 || w > cfg.max_side as usize || h > cfg.max_side as usize => {
-                return invalid(format!("an output of {w} x {h}: each side must be within 16..={}", cfg.max_side));
-            }
             (Some((w, h)), SketchInput::Raster(g)) if (w, h) != (g.width, g.height) => {
                 SketchInput::Raster(crate::stages::sketch::resample_nearest(&g, w, h))
             }
-            (Some(size), SketchInput::Strokes { sketch, .. }) => SketchInput::Strokes { sketch, size },
+            (Some(size), SketchInput::Strokes { sketch, .. }) => {
+                sketch.check_work(size.0, size.1).map_err(SessionError::Invalid)?;
+                SketchInput::Strokes { sketch, size }
+            }
             (_, sketch) => sketch,
         };
         let (width, height) = sketch.size();
@@ -384,20 +388,42 @@ impl Session {
     }
 
     /// Refuses, before any work, a job whose estimated peak memory exceeds its budget.
-    /// A library that cannot be read is left for the exemplars stage to report.
+    /// The library counts what the reader accepts: each exemplar by its header (a
+    /// header the reader refuses counts nothing), and when that would not fit, the
+    /// largest exemplars are judged whole, largest first, until it fits or each was
+    /// ([`ExemplarSource::verified_cells`]: a PNG decoded a row at a time; a file that
+    /// fails counts nothing, as the exemplars stage skips it). A library
+    /// that cannot be read at all is left for the exemplars stage to report.
     fn check_memory(&self, sketch: &Path) -> Result<(), SessionError> {
         let (width, height) = (self.sketch.size().0 as u64, self.sketch.size().1 as u64);
-        let library_cells: u64 = match self.backend {
-            Backend::InProcess { .. } => {
-                let cell = self.settings.cell_size.or_else(|| common_cell_size(&self.sources));
-                self.sources.iter().map(|s| s.cells_at(cell)).sum()
-            }
-            #[allow(unreachable_patterns)]
-            _ => 0,
-        };
         let evaluated = self.outputs.as_ref().is_some_and(|o| o.report.is_some());
-        let est = crate::job::memory_budget::check(sketch, width, height, library_cells, evaluated, self.settings.max_memory)
-            .map_err(SynthError::Memory)?;
+        let budget = self.settings.max_memory;
+        let check = |lib: &[(String, u64)]| crate::job::memory_budget::check(sketch, width, height, lib, evaluated, budget);
+        let cell = self.settings.cell_size.or_else(|| common_cell_size(&self.sources));
+        let mut library: Vec<(String, u64)> = match self.backend {
+            Backend::InProcess { .. } => self.sources.iter().map(|s| (s.name(), s.cells_at(cell))).collect(),
+            #[allow(unreachable_patterns)]
+            _ => Vec::new(),
+        };
+        let mut est = check(&library);
+        if est.is_err() {
+            let mut order: Vec<usize> = (0..library.len()).filter(|&i| library[i].1 > 0).collect();
+            order.sort_by_key(|&i| std::cmp::Reverse(library[i].1));
+            for i in order {
+                library[i].1 = match self.sources[i].verified_cells(cell, self.settings.max_side) {
+                    Ok(cells) => cells,
+                    Err(e) => {
+                        tracing::warn!(exemplar = %self.sources[i].location(), error = %e, "exemplar not counted in the memory budget: it cannot be read");
+                        0
+                    }
+                };
+                est = check(&library);
+                if est.is_ok() {
+                    break;
+                }
+            }
+        }
+        let est = est.map_err(SynthError::Memory)?;
         tracing::info!(estimated_peak_mb = est.total() >> 20, "memory estimate");
         Ok(())
     }

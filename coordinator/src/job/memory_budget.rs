@@ -108,24 +108,33 @@ pub fn human(bytes: u64) -> String {
 }
 
 /// Refuses a job of `width x height` output cells whose estimate exceeds `budget`
-/// (`--max-memory`), or, without one, the memory available now.
+/// (`--max-memory`), or, without one, the memory available now. `library` holds each
+/// in-process exemplar's name and cells (empty when the library lives on workers); the
+/// refusal names the largest.
 pub fn check(
     sketch: &Path,
     width: u64,
     height: u64,
-    library_cells: u64,
+    library: &[(String, u64)],
     evaluated: bool,
     budget: Option<u64>,
 ) -> Result<Estimate, String> {
-    let est = Estimate::new(width * height, library_cells, evaluated);
-    let per_cell = est.output_bytes / (width * height).max(1);
+    let library_cells = library.iter().fold(0u64, |a, (_, c)| a.saturating_add(*c));
+    let est = Estimate::new(width.saturating_mul(height), library_cells, evaluated);
+    let per_cell = est.output_bytes / width.saturating_mul(height).max(1);
     let (limit, what) = match budget {
         Some(b) => (Some(b), "the --max-memory budget".to_string()),
         None => (available_bytes(), "the memory available on this machine".to_string()),
     };
+    let largest = library
+        .iter()
+        .max_by_key(|(_, c)| *c)
+        .filter(|(_, c)| c.saturating_mul(BYTES_PER_EXEMPLAR_CELL) > est.total() / 4)
+        .map(|(n, c)| format!(" (the largest exemplar, {n}, takes {})", human(c.saturating_mul(BYTES_PER_EXEMPLAR_CELL))))
+        .unwrap_or_default();
     match limit {
         Some(l) if est.total() > l => Err(format!(
-            "{}: a {width} x {height} terrain needs about {} ({} for the output at {per_cell} bytes per cell, {} for the exemplar library in this process), more than {what} ({}); use a smaller sketch, score on workers (--workers) to keep the library out of this process, or raise --max-memory",
+            "{}: a {width} x {height} terrain needs about {} ({} for the output at {per_cell} bytes per cell, {} for the exemplar library in this process{largest}), more than {what} ({}); use a smaller sketch, score on workers (--workers) to keep the library out of this process, or raise --max-memory",
             sketch.display(),
             human(est.total()),
             human(est.output_bytes),
@@ -162,9 +171,13 @@ mod tests {
             assert!(mib >= measured && mib <= measured * 7 / 6, "{mib} MiB against {measured} measured");
         }
         let p = Path::new("s.png");
-        assert!(check(p, 4096, 4096, 9_068_549, false, Some(1 << 30)).is_ok());
-        assert!(check(p, 4096, 4096, 9_068_549, true, Some(1 << 29)).is_err(), "a report costs its share");
-        let e = check(p, 20000, 20000, 0, false, Some(1 << 30)).unwrap_err();
+        let shared = [("all 16".to_string(), 9_068_549u64)];
+        assert!(check(p, 4096, 4096, &shared, false, Some(1 << 30)).is_ok());
+        assert!(check(p, 4096, 4096, &shared, true, Some(1 << 29)).is_err(), "a report costs its share");
+        let big = [("small.png".to_string(), 1_000_000u64), ("huge.png".to_string(), 400_000_000)];
+        let e = check(p, 512, 512, &big, false, Some(1 << 30)).unwrap_err();
+        assert!(e.contains("the largest exemplar, huge.png, takes 7.5 GiB"), "{e}");
+        let e = check(p, 20000, 20000, &[], false, Some(1 << 30)).unwrap_err();
         assert!(e.contains("s.png") && e.contains("needs about 6.8 GiB") && e.contains("18 bytes per cell"), "{e}");
         assert!(e.contains("--max-memory budget (1.0 GiB)"), "{e}");
         assert!(available_bytes().is_some_and(|b| b > 0));

@@ -70,15 +70,27 @@ impl Default for JobSettings {
 
 /// Largest output cell size accepted (a degree of latitude is about 111 km).
 pub const MAX_CELL_SIZE_M: f32 = 100_000.0;
+/// Smallest patch side a job takes.
+pub const MIN_PATCH: usize = 16;
+/// Most candidates kept per user patch (each sizes the best-sets of every patch).
+pub const MAX_K: usize = 64;
+/// Most user patches in one round-1 block (each block's requests are sized by it).
+pub const MAX_BLOCK: usize = 4096;
 
 impl JobSettings {
     /// Refuses settings no job can run with, saying which and why.
     pub fn validate(&self) -> Result<(), SynthError> {
-        if self.patch < 8 || self.patch > 512 || !self.patch.is_multiple_of(2) {
-            return Err(SynthError::Config(format!("patch size {} must be even and within 8..=512", self.patch)));
+        // below 16 cells a window of the exemplars' feature density always touches a
+        // ridge or valley: hole filling would find no featureless candidate (patch 8 and
+        // 10 on the shared DEMs failed that way, after the work)
+        if self.patch < MIN_PATCH || self.patch > 512 || !self.patch.is_multiple_of(2) {
+            return Err(SynthError::Config(format!("patch size {} must be even and within {MIN_PATCH}..=512", self.patch)));
         }
-        if self.k == 0 || self.block == 0 {
-            return Err(SynthError::Config("k and block must be at least 1".into()));
+        if !(1..=MAX_K).contains(&self.k) || !(1..=MAX_BLOCK).contains(&self.block) {
+            return Err(SynthError::Config(format!(
+                "k {} and block {}: give k within 1..={MAX_K} and a block of 1..={MAX_BLOCK} user patches",
+                self.k, self.block
+            )));
         }
         if let Some(c) = self.cell_size {
             if !c.is_finite() || c <= 0.0 || c > MAX_CELL_SIZE_M {

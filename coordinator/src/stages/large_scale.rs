@@ -392,9 +392,22 @@ impl<'a> SegmentIndex<'a> {
                 let (a, b) = (s.points[k], s.points[(k + 1).min(s.points.len() - 1)]);
                 let r = 0.5 * s.width_at(k).max(s.width_at((k + 1).min(s.points.len() - 1))) + 8.0;
                 let cell = |v: f32| (v.max(0.0) / Self::BUCKET) as usize;
-                for by in cell(a[1].min(b[1]) - r)..=cell(a[1].max(b[1]) + r) {
-                    for bx in cell(a[0].min(b[0]) - r)..=cell(a[0].max(b[0]) + r) {
-                        lists.entry((bx, by)).or_default().push((si, k));
+                // in pieces a bucket long, so a long diagonal covers the buckets along
+                // it, not its bounding box's
+                let pieces = ((b[0] - a[0]).hypot(b[1] - a[1]) / Self::BUCKET).ceil().max(1.0) as usize;
+                let at = |i: usize| {
+                    let t = i as f32 / pieces as f32;
+                    [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]
+                };
+                for i in 0..pieces {
+                    let (p, q) = (at(i), at(i + 1));
+                    for by in cell(p[1].min(q[1]) - r)..=cell(p[1].max(q[1]) + r) {
+                        for bx in cell(p[0].min(q[0]) - r)..=cell(p[0].max(q[0]) + r) {
+                            let list = lists.entry((bx, by)).or_default();
+                            if list.last() != Some(&(si, k)) {
+                                list.push((si, k));
+                            }
+                        }
                     }
                 }
             }

@@ -23,12 +23,14 @@ pub mod centre_lines;
 pub mod cross_section;
 pub mod features;
 pub mod guide;
+pub mod sides;
 pub mod strokes;
 
 pub use centre_lines::{centre_lines, is_stroke, raster_value, SKETCH_PPA};
 pub use cross_section::{cross_section, CrossSection};
 pub use features::SketchFeatures;
 pub use guide::LocalGuide;
+pub use sides::{check_side, MIN_SIDE};
 pub use strokes::{Pen, Stroke, StrokeSketch};
 
 use ridgeline_terrain::feature_extraction::PerKind;

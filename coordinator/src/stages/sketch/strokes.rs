@@ -99,9 +99,7 @@ impl StrokeSketch {
     /// Checks the strokes: a size within `max_side`, finite points, pen widths in range,
     /// per-point values one per point.
     pub fn validate(&self, max_side: u32) -> Result<(), String> {
-        if self.width < 16 || self.height < 16 || self.width > max_side as usize || self.height > max_side as usize {
-            return Err(format!("a sketch of {} x {}: each side must be within 16..={max_side}", self.width, self.height));
-        }
+        super::sides::check_side("a sketch", self.width, self.height, max_side)?;
         let width_ok = |w: f32| w.is_finite() && (1.0..=MAX_PEN_WIDTH).contains(&w);
         for (i, s) in self.strokes.iter().enumerate() {
             if !width_ok(s.width) {
@@ -110,8 +108,16 @@ impl StrokeSketch {
             if s.points.is_empty() {
                 return Err(format!("stroke {i}: no points"));
             }
-            if s.points.iter().flatten().any(|v| !v.is_finite() || v.abs() > 1e7) {
+            if s.points.iter().flatten().any(|v| !v.is_finite()) {
                 return Err(format!("stroke {i}: a point is not a finite coordinate"));
+            }
+            // off the canvas by at most its own size (a pen may start beyond its edge)
+            let (w, h) = (self.width as f32, self.height as f32);
+            if let Some(p) = s.points.iter().find(|p| !(-w..=2.0 * w).contains(&p[0]) || !(-h..=2.0 * h).contains(&p[1])) {
+                return Err(format!(
+                    "stroke {i}: point [{}, {}] lies further off the {} x {} canvas than its own size",
+                    p[0], p[1], self.width, self.height
+                ));
             }
             for (what, values) in [("widths", &s.widths), ("elevations", &s.elevations)] {
                 if values.as_ref().is_some_and(|v| v.len() != s.points.len()) {
@@ -130,11 +136,28 @@ impl StrokeSketch {
                 return Err(format!("stroke {i}: elevation {e} m (use -{MAX_ELEVATION_M} to {MAX_ELEVATION_M})"));
             }
         }
+        self.check_work(self.width, self.height)
+    }
+
+    /// Refuses strokes that would cost more than [`MAX_STROKE_WORK`] cell tests to draw
+    /// on their canvas or, scaled, on an output of `w x h` (where the large-scale form
+    /// indexes them): bounded before any work, whatever the points' count and spread.
+    pub fn check_work(&self, w: usize, h: usize) -> Result<(), String> {
+        let work = stroke_work(&self.strokes, self.width, self.height).max(stroke_work(&self.scaled_to(w, h), w, h));
+        if work > MAX_STROKE_WORK {
+            return Err(format!(
+                "the strokes would take {work} cell tests to draw, more than {MAX_STROKE_WORK}: use fewer points (one every few cells is enough), thinner pens or shorter strokes"
+            ));
+        }
         Ok(())
     }
 
     /// The sketch image: every stroke drawn in order with a round pen of its width (a
-    /// segment's radius goes from its first point's to its last's).
+    /// segment's radius goes from its first point's to its last's). Each segment is
+    /// drawn row by row over the cells its capsule can reach in that row, so a
+    /// segment costs about its length times its pen width, whatever its direction
+    /// (scanning its bounding box made a diagonal across a large canvas cost the
+    /// whole canvas); [`stroke_work`] says what it will cost before it runs.
     pub fn rasterize(&self) -> Grid<u8> {
         let mut g = Grid::new(self.width, self.height, 128u8);
         for s in &self.strokes {
@@ -143,30 +166,21 @@ impl StrokeSketch {
                 Pen::Eraser => 128,
             };
             let radius = |i: usize| (s.width_at(i) / 2.0).max(0.5);
-            let segments: Vec<(usize, usize)> =
-                if s.points.len() == 1 { vec![(0, 0)] } else { (0..s.points.len() - 1).map(|i| (i, i + 1)).collect() };
-            for (ia, ib) in segments {
+            for (ia, ib) in segments(s) {
                 let (a, b) = (s.points[ia], s.points[ib]);
                 let (ra, rb) = (radius(ia), radius(ib));
-                let r = ra.max(rb);
-                let x0 = (a[0].min(b[0]) - r).floor().max(0.0) as usize;
-                let y0 = (a[1].min(b[1]) - r).floor().max(0.0) as usize;
-                let x1 = ((a[0].max(b[0]) + r).ceil().max(0.0) as usize).min(self.width);
-                let y1 = ((a[1].max(b[1]) + r).ceil().max(0.0) as usize).min(self.height);
-                for y in y0..y1 {
-                    for x in x0..x1 {
-                        // distance from the cell centre to the segment
-                        let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
-                        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-                        let len2 = dx * dx + dy * dy;
-                        let t = if len2 > 0.0 { (((px - a[0]) * dx + (py - a[1]) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
-                        let (qx, qy) = (a[0] + t * dx - px, a[1] + t * dy - py);
-                        let rt = ra + t * (rb - ra);
-                        if qx * qx + qy * qy <= rt * rt {
-                            g.set(x, y, value);
-                        }
+                let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+                let len2 = dx * dx + dy * dy;
+                for_each_reachable_cell(a, b, ra.max(rb), self.width, self.height, |x, y| {
+                    // distance from the cell centre to the segment
+                    let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
+                    let t = if len2 > 0.0 { (((px - a[0]) * dx + (py - a[1]) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
+                    let (qx, qy) = (a[0] + t * dx - px, a[1] + t * dy - py);
+                    let rt = ra + t * (rb - ra);
+                    if qx * qx + qy * qy <= rt * rt {
+                        g.set(x, y, value);
                     }
-                }
+                });
             }
         }
         g
@@ -188,6 +202,86 @@ impl StrokeSketch {
             })
             .collect()
     }
+}
+
+/// Most cells the rasteriser may test for one sketch (about a second of one core):
+/// strokes that would cost more are refused before any is drawn.
+pub const MAX_STROKE_WORK: u64 = 1 << 30;
+
+/// A stroke's segments as point index pairs (a single point: one dot).
+fn segments(s: &Stroke) -> Vec<(usize, usize)> {
+    if s.points.len() == 1 {
+        vec![(0, 0)]
+    } else {
+        (0..s.points.len() - 1).map(|i| (i, i + 1)).collect()
+    }
+}
+
+/// The rows `y0..y1` of a canvas `h` rows high that a segment's capsule of radius at
+/// most `r` can reach (a cell of slack for rounding).
+fn row_range(a: [f32; 2], b: [f32; 2], r: f32, h: usize) -> (usize, usize) {
+    let clip = |v: f32| v.clamp(0.0, h as f32) as usize;
+    (clip((a[1].min(b[1]) - r - 1.0).floor()), clip((a[1].max(b[1]) + r + 1.0).ceil() + 1.0))
+}
+
+/// The canvas rows a segment's capsule of radius at most `r` can reach, each with the
+/// columns it can reach in that row (both clipped to the canvas, a cell of slack for
+/// rounding): a superset of the capsule's cells.
+fn reachable_rows(a: [f32; 2], b: [f32; 2], r: f32, w: usize, h: usize) -> impl Iterator<Item = (usize, usize, usize)> {
+    let (y0, y1) = row_range(a, b, r, h);
+    let r = r + 1.0;
+    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+    let clip = |v: f32, n: usize| v.clamp(0.0, n as f32) as usize;
+    (y0..y1).filter_map(move |y| {
+        let py = y as f32 + 0.5;
+        // the part of the segment within r of this row, as parameters t in [0, 1]
+        let (t0, t1) = if dy.abs() < 1e-6 {
+            if (a[1] - py).abs() > r {
+                return None;
+            }
+            (0.0, 1.0)
+        } else {
+            let (u, v) = ((py - r - a[1]) / dy, (py + r - a[1]) / dy);
+            (u.min(v).max(0.0), u.max(v).min(1.0))
+        };
+        if t0 > t1 {
+            return None;
+        }
+        let (xa, xb) = (a[0] + t0 * dx, a[0] + t1 * dx);
+        let x0 = clip((xa.min(xb) - r).floor(), w);
+        let x1 = clip((xa.max(xb) + r).ceil() + 1.0, w);
+        (x0 < x1).then_some((y, x0, x1))
+    })
+}
+
+/// Calls `f(x, y)` for every cell [`reachable_rows`] lists.
+fn for_each_reachable_cell(a: [f32; 2], b: [f32; 2], r: f32, w: usize, h: usize, mut f: impl FnMut(usize, usize)) {
+    for (y, x0, x1) in reachable_rows(a, b, r, w, h) {
+        for x in x0..x1 {
+            f(x, y);
+        }
+    }
+}
+
+/// How many cells drawing `strokes` on a `w x h` canvas tests (saturating): the
+/// bound checked before a sketch is drawn or indexed, found in time proportional to
+/// the segments' rows on the canvas, not their cells.
+pub fn stroke_work(strokes: &[Stroke], w: usize, h: usize) -> u64 {
+    let mut work = 0u64;
+    for s in strokes {
+        for (ia, ib) in segments(s) {
+            let r = (s.width_at(ia).max(s.width_at(ib)) / 2.0).max(0.5);
+            // each row a segment reaches is 1 + r / sin of its angle cells wide at
+            // most: count rows times the widest span, found from one row's formula
+            let (a, b) = (s.points[ia], s.points[ib]);
+            let (y0, y1) = row_range(a, b, r, h);
+            let rows = y1.saturating_sub(y0) as u64;
+            let (dx, dy) = ((b[0] - a[0]).abs(), (b[1] - a[1]).abs());
+            let span = if dy < 1e-6 { dx } else { dx.min(dx / dy * 2.0 * (r + 1.0)) } + 2.0 * r + 6.0;
+            work = work.saturating_add(rows.saturating_mul(span.min(w as f32 + 1.0) as u64));
+        }
+    }
+    work
 }
 
 /// Cells between the points a centre line keeps as a stroke's polyline.
@@ -303,6 +397,108 @@ mod tests {
         .rasterize();
         let column = |x: usize| (0..32).filter(|&y| swell.get(x, y) == 255).count();
         assert!(column(6) <= 3 && (10..=13).contains(&column(58)), "{} {}", column(6), column(58));
+    }
+
+    /// The rasteriser as it was: every segment tested over its whole bounding box.
+    fn rasterize_by_bounding_boxes(sk: &StrokeSketch) -> Grid<u8> {
+        let mut g = Grid::new(sk.width, sk.height, 128u8);
+        for s in &sk.strokes {
+            let value = match s.pen {
+                Pen::Draw(kind) => raster_value(kind),
+                Pen::Eraser => 128,
+            };
+            let radius = |i: usize| (s.width_at(i) / 2.0).max(0.5);
+            for (ia, ib) in segments(s) {
+                let (a, b) = (s.points[ia], s.points[ib]);
+                let (ra, rb) = (radius(ia), radius(ib));
+                let r = ra.max(rb);
+                let x0 = (a[0].min(b[0]) - r).floor().max(0.0) as usize;
+                let y0 = (a[1].min(b[1]) - r).floor().max(0.0) as usize;
+                let x1 = ((a[0].max(b[0]) + r).ceil().max(0.0) as usize).min(sk.width);
+                let y1 = ((a[1].max(b[1]) + r).ceil().max(0.0) as usize).min(sk.height);
+                for y in y0..y1 {
+                    for x in x0..x1 {
+                        let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
+                        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+                        let len2 = dx * dx + dy * dy;
+                        let t = if len2 > 0.0 { (((px - a[0]) * dx + (py - a[1]) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
+                        let (qx, qy) = (a[0] + t * dx - px, a[1] + t * dy - py);
+                        let rt = ra + t * (rb - ra);
+                        if qx * qx + qy * qy <= rt * rt {
+                            g.set(x, y, value);
+                        }
+                    }
+                }
+            }
+        }
+        g
+    }
+
+    fn arb_sketch() -> impl proptest::strategy::Strategy<Value = StrokeSketch> {
+        use proptest::prelude::*;
+        (16usize..90, 16usize..90).prop_flat_map(|(w, h)| {
+            let point = (-(w as f32)..2.0 * w as f32, -(h as f32)..2.0 * h as f32).prop_map(|(x, y)| [x, y]);
+            let stroke = (0usize..3, 1.0f32..MAX_PEN_WIDTH, proptest::collection::vec(point, 1..12), any::<bool>()).prop_map(
+                |(pen, width, points, swell)| {
+                    let pen = [Pen::RIDGE, Pen::VALLEY, Pen::Eraser][pen];
+                    let widths = swell.then(|| (0..points.len()).map(|i| 1.0 + (i * 7 % 40) as f32).collect());
+                    Stroke { pen, width, points, widths, elevations: None }
+                },
+            );
+            proptest::collection::vec(stroke, 0..6).prop_map(move |strokes| StrokeSketch { width: w, height: h, strokes })
+        })
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig { cases: 300, failure_persistence: None, ..Default::default() })]
+
+        /// Drawing row by row gives the bytes the bounding-box scan gave, tests no
+        /// more cells than `stroke_work` said, and every accepted sketch draws.
+        #[test]
+        fn the_rasteriser_draws_what_the_scan_drew_within_its_stated_work(sk in arb_sketch()) {
+            proptest::prop_assert!(sk.validate(4096).is_ok(), "{:?}", sk.validate(4096));
+            proptest::prop_assert_eq!(sk.rasterize(), rasterize_by_bounding_boxes(&sk));
+            let mut tested = 0u64;
+            for s in &sk.strokes {
+                for (ia, ib) in segments(s) {
+                    let r = (s.width_at(ia).max(s.width_at(ib)) / 2.0).max(0.5);
+                    tested += reachable_rows(s.points[ia], s.points[ib], r, sk.width, sk.height).map(|(_, x0, x1)| (x1 - x0) as u64).sum::<u64>();
+                }
+            }
+            let work = stroke_work(&sk.strokes, sk.width, sk.height);
+            proptest::prop_assert!(tested <= work, "tested {} cells, work said {}", tested, work);
+        }
+    }
+
+    #[test]
+    fn strokes_that_would_cost_too_much_are_refused_before_drawing() {
+        // 20,000 points between opposite corners of a 512² canvas with a wide pen:
+        // refused by the work bound, found at once
+        let zigzag: Vec<[f32; 2]> = (0..20_000).map(|i| if i % 2 == 0 { [0.0, 0.0] } else { [511.0, 511.0] }).collect();
+        let sk = StrokeSketch { width: 512, height: 512, strokes: vec![Stroke::new(Pen::RIDGE, 64.0, zigzag)] };
+        let t = std::time::Instant::now();
+        let e = sk.validate(8192).unwrap_err();
+        assert!(e.contains("cell tests") && t.elapsed().as_secs_f32() < 1.0, "{e}");
+        // a few points on a large canvas are cheap now: a diagonal costs its length
+        let diag = StrokeSketch {
+            width: 8192,
+            height: 8192,
+            strokes: vec![Stroke::new(Pen::VALLEY, 9.0, (0..21).map(|i| [(i % 2) as f32 * 8191.0, i as f32 * 400.0]).collect())],
+        };
+        assert!(diag.validate(8192).is_ok());
+        assert!(stroke_work(&diag.strokes, 8192, 8192) < 100_000_000, "{}", stroke_work(&diag.strokes, 8192, 8192));
+        // scaled to a much larger output the same strokes cost more, and are bounded there
+        let small = StrokeSketch {
+            width: 16,
+            height: 16,
+            strokes: vec![Stroke::new(Pen::RIDGE, 64.0, (0..2000).map(|i| [(i % 16) as f32, (i / 125) as f32]).collect())],
+        };
+        assert!(small.validate(8192).is_ok());
+        assert!(small.check_work(8192, 8192).unwrap_err().contains("cell tests"));
+        // a point far off the canvas is refused
+        let far =
+            StrokeSketch { width: 64, height: 64, strokes: vec![Stroke::new(Pen::RIDGE, 3.0, vec![[1.0, 1.0], [1e7, 5.0]])] };
+        assert!(far.validate(8192).unwrap_err().contains("further off"));
     }
 
     #[test]
