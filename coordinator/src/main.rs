@@ -87,6 +87,24 @@ fn backend(
     })
 }
 
+/// The jobs' folder of a service given none: one per process in the temporary
+/// folder; those of earlier services whose process has gone are removed first (their
+/// jobs went with them).
+fn default_jobs_dir() -> PathBuf {
+    let tmp = std::env::temp_dir();
+    // which processes live is read from /proc: where there is none, nothing is removed
+    let procs = Path::new("/proc/self").exists();
+    for e in std::fs::read_dir(&tmp).into_iter().filter(|_| procs).flatten().filter_map(|e| e.ok()) {
+        let name = e.file_name().to_string_lossy().into_owned();
+        let pid = name.strip_prefix("ridgeline-jobs-").and_then(|p| p.parse::<u32>().ok());
+        if pid.is_some_and(|p| p != std::process::id() && !Path::new(&format!("/proc/{p}")).exists()) {
+            tracing::info!(folder = %e.path().display(), "an earlier service's jobs folder removed");
+            let _ = std::fs::remove_dir_all(e.path());
+        }
+    }
+    tmp.join(format!("ridgeline-jobs-{}", std::process::id()))
+}
+
 fn serve(a: ServeArgs) -> Result<()> {
     if a.token.is_none() && !a.listen.ip().is_loopback() {
         bail!("refusing to serve on {} without a token: pass --token or set RIDGELINE_TOKEN (only loopback addresses may run without one)", a.listen);
@@ -95,15 +113,12 @@ fn serve(a: ServeArgs) -> Result<()> {
     let backend = backend(urls, a.gpu, &a.token, &a.tls_ca, a.call_timeout_s, None);
     let cfg = ridgeline::service::ServiceConfig {
         library: a.exemplars.clone(),
-        jobs_dir: a
-            .jobs_dir
-            .clone()
-            .unwrap_or_else(|| std::env::temp_dir().join(format!("ridgeline-jobs-{}", std::process::id()))),
+        jobs_dir: a.jobs_dir.clone().unwrap_or_else(default_jobs_dir),
         backend,
         token: a.token.clone(),
-        max_queue: a.max_queue.max(1),
-        keep_jobs: a.keep_jobs.max(1),
-        max_body: a.max_body_mb.max(1) << 20,
+        max_queue: a.max_queue as usize,
+        keep_jobs: a.keep_jobs as usize,
+        max_body: (a.max_body_mb as usize) << 20,
         max_side: a.max_side,
         threads: a.threads,
         cache_dir: Some(a.cache_dir.clone().unwrap_or_else(ridgeline_worker::FeatureCache::default_dir)),
@@ -111,10 +126,11 @@ fn serve(a: ServeArgs) -> Result<()> {
     let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
     rt.block_on(async move {
         let listener = tokio::net::TcpListener::bind(a.listen).await.with_context(|| format!("cannot listen on {}", a.listen))?;
-        let addr = listener.local_addr()?;
-        println!("ridgeline is serving on http://{addr}/");
-        use std::io::Write;
-        std::io::stdout().flush()?;
+        let ready = |addr: std::net::SocketAddr| {
+            use std::io::Write;
+            println!("ridgeline is serving on http://{addr}/");
+            let _ = std::io::stdout().flush();
+        };
         let shutdown = async {
             let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()).ok();
             tokio::select! {
@@ -123,7 +139,7 @@ fn serve(a: ServeArgs) -> Result<()> {
             }
             tracing::info!("shutting down: cancelling the running job");
         };
-        ridgeline::service::serve(listener, cfg, shutdown).await.map_err(|e| anyhow::anyhow!("{e}"))
+        ridgeline::service::serve(listener, cfg, ready, shutdown).await.map_err(|e| anyhow::anyhow!("{e}"))
     })
 }
 
@@ -284,12 +300,7 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
 /// A vector sketch (JSON: width, height, strokes with pen, width and optional per-point
 /// widths and elevations), read and checked, every problem naming the file.
 fn read_stroke_sketch(path: &Path, max_side: u32) -> Result<ridgeline::session::StrokeSketch> {
-    const MAX_BYTES: u64 = 64 << 20;
-    let len = std::fs::metadata(path).with_context(|| format!("{}: cannot read the sketch", path.display()))?.len();
-    if len > MAX_BYTES {
-        bail!("{}: a vector sketch of {len} bytes; at most {MAX_BYTES}", path.display());
-    }
-    let text = std::fs::read_to_string(path).with_context(|| format!("{}: cannot read the sketch", path.display()))?;
+    let text = ridgeline_terrain::io::read_text_input(path)?;
     let sketch: ridgeline::session::StrokeSketch = serde_json::from_str(&text)
         .with_context(|| format!("{}: not a vector sketch (width, height, strokes)", path.display()))?;
     sketch.validate(max_side).map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))?;

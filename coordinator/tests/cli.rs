@@ -557,3 +557,90 @@ fn vector_sketches_and_elevation_ranges_are_checked_and_honoured() {
     let changed = h.data.iter().zip(&e.data).filter(|(a, b)| (*a - *b).abs() > 1.0).count();
     assert!(changed > 0 && changed < h.data.len(), "erosion changed {changed} of {} cells", h.data.len());
 }
+
+/// A PNG header claiming `w x h` 16-bit grey pixels, followed by `data` bytes of junk
+/// pixel data (a file that is not what it says).
+fn lying_png(w: u32, h: u32, data: usize) -> Vec<u8> {
+    fn crc32(bytes: &[u8]) -> u32 {
+        let mut c = !0u32;
+        for &b in bytes {
+            c ^= b as u32;
+            for _ in 0..8 {
+                c = if c & 1 != 0 { 0xEDB8_8320 ^ (c >> 1) } else { c >> 1 };
+            }
+        }
+        !c
+    }
+    let chunk = |kind: &[u8], body: &[u8]| {
+        let all: Vec<u8> = kind.iter().chain(body).copied().collect();
+        let mut c = (body.len() as u32).to_be_bytes().to_vec();
+        c.extend_from_slice(&all);
+        c.extend_from_slice(&crc32(&all).to_be_bytes());
+        c
+    };
+    let mut ihdr = w.to_be_bytes().to_vec();
+    ihdr.extend_from_slice(&h.to_be_bytes());
+    ihdr.extend_from_slice(&[16, 0, 0, 0, 0]);
+    let mut out = b"\x89PNG\r\n\x1a\n".to_vec();
+    out.extend(chunk(b"IHDR", &ihdr));
+    out.extend(chunk(b"IDAT", &(0..data).map(|i| (i * 7919 % 251) as u8).collect::<Vec<u8>>()));
+    out.extend(chunk(b"IEND", &[]));
+    out
+}
+
+#[test]
+fn hostile_files_and_numbers_are_refused_before_they_size_anything() {
+    let Some(data) = shared() else { return };
+    let d = tmp("hostile2");
+    let sketch = small_sketch(&d);
+    let synth = |args: &[&str], lib: &Path| {
+        let mut c = bin();
+        c.args(["synth", "--patch-size", "32", "--cache-dir"]).arg(d.join("cache")).arg("--exemplars").arg(lib).args(args);
+        stderr_of(&mut c)
+    };
+    // a DEM whose header lies (200000² in 74 bytes; 20000² with 1 MB of junk) does not
+    // sink the library: skipped with a note, the job runs within a small budget
+    let lib = small_library(&d, &data);
+    std::fs::write(lib.join("liar.png"), lying_png(200_000, 200_000, 20)).unwrap();
+    std::fs::write(lib.join("truncated.png"), lying_png(20_000, 20_000, 1 << 20)).unwrap();
+    let out = d.join("o.tif");
+    let (ok, err) = synth(&["--max-memory", "2G", "--sketch", sketch.to_str().unwrap(), "--out", out.to_str().unwrap()], &lib);
+    assert!(ok, "{err}");
+    assert!(err.contains("skipped exemplar") && err.contains("liar.png") && err.contains("truncated.png"), "{err}");
+    std::fs::remove_file(&out).unwrap();
+    // tiles: every size outside 2..=the terrain's longer side is refused before any work,
+    // with nothing written
+    for t in ["4294967297", "18446744073709551615", "4096", "1"] {
+        let (ok, err) = synth(&["--tiles", t, "--sketch", sketch.to_str().unwrap(), "--out", out.to_str().unwrap()], &lib);
+        assert!(!ok && err.contains("a tile needs 2 to 192 samples"), "{t}: {err}");
+    }
+    let left: Vec<_> = std::fs::read_dir(&d)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().starts_with('o'))
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
+    // an endless sketch, a 1 x 1 and a 3 x 300 one
+    let (ok, err) = synth(&["--sketch", "/dev/zero", "--out", out.to_str().unwrap()], &lib);
+    assert!(!ok && err.contains("/dev/zero") && err.contains("not a regular file"), "{err}");
+    for (w, h) in [(1, 1), (3, 300)] {
+        let p = d.join(format!("s{w}x{h}.png"));
+        image::GrayImage::from_pixel(w, h, image::Luma([128])).save(&p).unwrap();
+        let (ok, err) = synth(&["--sketch", p.to_str().unwrap(), "--out", out.to_str().unwrap()], &lib);
+        assert!(!ok && err.contains(&format!("{w} x {h}")) && err.contains("16..="), "{err}");
+    }
+    // patch 8 is refused up front rather than failing after the work
+    let (ok, err) = stderr_of(
+        bin().args(["synth", "--patch-size", "8", "--exemplars"]).arg(&lib).arg("--sketch").arg(&sketch).arg("--out").arg(&out),
+    );
+    assert!(!ok && err.contains("16..=512"), "{err}");
+    // empty tokens and zero limits for the service
+    for args in [&["--token", ""][..], &["--max-queue", "0"], &["--max-body-mb", "0"], &["--keep-jobs", "0"]] {
+        let (ok, err) = stderr_of(
+            bin().args(["serve", "--listen", "127.0.0.1:0", "--exemplars"]).arg(&lib).args(args).env_remove("RIDGELINE_TOKEN"),
+        );
+        assert!(!ok && (err.contains("token is empty") || err.contains("not in 1..")), "{args:?}: {err}");
+    }
+    let (ok, err) = stderr_of(bin().args(["serve", "--listen", "0.0.0.0:0", "--exemplars"]).arg(&lib).env("RIDGELINE_TOKEN", ""));
+    assert!(!ok && err.contains("token is empty"), "{err}");
+}

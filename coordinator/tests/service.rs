@@ -296,6 +296,7 @@ fn a_full_queue_is_refused_and_cancel_stops_queued_and_running_jobs() {
     let (code, st) = post(&format!("{jobs}/{b}/cancel"), &serde_json::json!({}), None);
     assert_eq!(code, 200, "{st}");
     assert_eq!(get(&format!("{jobs}/{b}")).1["state"], "cancelled");
+    assert!(!d.join("jobs").join(&b).exists(), "a job cancelled while queued leaves no folder");
     // A is running: cancel stops it at its next check
     std::thread::sleep(std::time::Duration::from_millis(500));
     let t = std::time::Instant::now();
@@ -327,4 +328,103 @@ fn serving_beyond_loopback_needs_a_token() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(err.contains("without a token"), "{err}");
+}
+
+/// GET with a header token (or none), answered as (status, JSON body).
+fn get_as(url: &str, token: Option<&str>) -> (u16, serde_json::Value) {
+    let mut req = ureq::get(url);
+    if let Some(t) = token {
+        req = req.set("authorization", &format!("Bearer {t}"));
+    }
+    answer(req.call())
+}
+
+#[test]
+fn tokens_decode_errors_are_json_without_server_paths_and_restarts_and_sigterm_leave_nothing() {
+    let Some(data) = shared() else { return };
+    let d = tmp("round2");
+    let lib = small_library(&d, &data);
+    std::fs::write(lib.join("broken.png"), b"\x89PNG\r\n\x1a\nbroken").unwrap();
+    // what an earlier instance left: a job folder with a temporary file, and a folder
+    // that is not a job's
+    let jobs_dir = d.join("jobs");
+    std::fs::create_dir_all(jobs_dir.join("j000007-1a2b3c/sub")).unwrap();
+    std::fs::write(jobs_dir.join("j000007-1a2b3c/.terrain.tif.123.tmp"), b"half").unwrap();
+    std::fs::create_dir_all(jobs_dir.join("keep-me")).unwrap();
+    let token = "a/b+c=d";
+    let log = d.join("serve.log");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_ridgeline"))
+        .args(["serve", "--listen", "127.0.0.1:0", "--threads", "2", "--gpu", "off", "--token", token, "--exemplars"])
+        .arg(&lib)
+        .arg("--jobs-dir")
+        .arg(&jobs_dir)
+        .arg("--cache-dir")
+        .arg(d.join("cache"))
+        .env_remove("RIDGELINE_TOKEN")
+        .env("RUST_LOG", "info")
+        .stdout(Stdio::piped())
+        .stderr(std::fs::File::create(&log).unwrap())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+    let url = line.trim().strip_prefix("ridgeline is serving on ").unwrap().trim_end_matches('/').to_string();
+    let s = Server { child, url };
+    assert!(!jobs_dir.join("j000007-1a2b3c").exists(), "an earlier instance's job folder is removed at start");
+    assert!(jobs_dir.join("keep-me").exists(), "a folder that is not a job's is left alone");
+    // a second service on the same jobs folder is refused while this one lives
+    let out = Command::new(env!("CARGO_BIN_EXE_ridgeline"))
+        .args(["serve", "--listen", "127.0.0.1:0", "--exemplars"])
+        .arg(&lib)
+        .arg("--jobs-dir")
+        .arg(&jobs_dir)
+        .env_remove("RIDGELINE_TOKEN")
+        .output()
+        .unwrap();
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("another ridgeline service"));
+    // the token in the query as the page sends it (encodeURIComponent), and in the header
+    let encoded: String =
+        token.bytes().map(|b| if b.is_ascii_alphanumeric() { (b as char).to_string() } else { format!("%{b:02X}") }).collect();
+    assert_eq!(get(&format!("{}/api/exemplars?token={encoded}", s.url)).0, 200);
+    assert_eq!(get_as(&format!("{}/api/exemplars", s.url), Some(token)).0, 200);
+    assert_eq!(get(&format!("{}/api/exemplars?token=a/b", s.url)).0, 401);
+    // every error is JSON with a sentence: unknown routes, methods, bad queries
+    let (code, e) = get_as(&format!("{}/api/nope", s.url), Some(token));
+    assert!(code == 404 && e["error"].as_str().unwrap().contains("/api/nope"), "{code} {e}");
+    let (code, e) = get_as(&format!("{}/nothing-here", s.url), Some(token));
+    assert!(code == 404 && e["error"].is_string(), "{code} {e}");
+    let (code, e) = answer(ureq::delete(&format!("{}/api/jobs", s.url)).set("authorization", &format!("Bearer {token}")).call());
+    assert!(code == 405 && e["error"].as_str().unwrap().contains("DELETE"), "{code} {e}");
+    let (code, e) = get_as(&format!("{}/api/jobs/nope/heights?max=-1", s.url), Some(token));
+    assert!(code == 400 && e["error"].as_str().unwrap().contains("max"), "{code} {e}");
+    // a job that fails names the file, not the server's folders
+    let jobs = format!("{}/api/jobs", s.url);
+    let broken = serde_json::json!({ "sketch": { "strokes": strokes(64, 64) }, "exemplars": ["broken.png"] });
+    let (code, st) = post(&jobs, &broken, Some(token));
+    assert_eq!(code, 202, "{st}");
+    let (fin, _) = follow_with(&s.url, st["id"].as_str().unwrap(), &format!("?token={encoded}"));
+    let why = fin["error"].as_str().unwrap();
+    let root = d.canonicalize().unwrap();
+    assert!(why.contains("broken.png") && !why.contains(root.to_str().unwrap()) && !why.contains(d.to_str().unwrap()), "{why}");
+    // SIGTERM while a job runs: the job ends cancelled, not done, and leaves no files
+    let long = serde_json::json!({ "sketch": { "strokes": strokes(1536, 1536) }, "patch_size": 32 });
+    let (code, a) = post(&jobs, &long, Some(token));
+    assert_eq!(code, 202, "{a}");
+    let a = a["id"].as_str().unwrap().to_string();
+    for _ in 0..200 {
+        if get_as(&format!("{jobs}/{a}"), Some(token)).1["state"] == "running" {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let pid = s.child.id();
+    assert!(Command::new("kill").args(["-TERM", &pid.to_string()]).status().unwrap().success());
+    let mut s = s;
+    let status = s.child.wait().unwrap();
+    assert!(status.success(), "{status:?}");
+    let text = std::fs::read_to_string(&log).unwrap();
+    let finished: Vec<&str> = text.lines().filter(|l| l.contains("job finished") || l.contains("job failed")).collect();
+    assert!(finished.last().is_some_and(|l| l.contains("Cancelled")), "{finished:?}");
+    assert!(!jobs_dir.join(&a).join("terrain.tif").exists(), "a job cancelled by SIGTERM leaves no terrain");
 }

@@ -51,7 +51,7 @@ pub struct ServeArgs {
     pub exemplars: PathBuf,
     /// Token clients must present (or RIDGELINE_TOKEN); also the fleet's cluster token.
     /// Required unless the service listens on a loopback address.
-    #[arg(long, env = "RIDGELINE_TOKEN", hide_env_values = true)]
+    #[arg(long, env = "RIDGELINE_TOKEN", hide_env_values = true, value_parser = ridgeline_ops::auth::parse_token)]
     pub token: Option<String>,
     /// Score on these gRPC workers (comma-separated URLs) instead of in-process.
     #[arg(long, value_delimiter = ',', conflicts_with = "workers_file")]
@@ -69,14 +69,14 @@ pub struct ServeArgs {
     #[arg(long)]
     pub jobs_dir: Option<PathBuf>,
     /// Most jobs waiting; a job over it is refused (HTTP 503) until one finishes.
-    #[arg(long, default_value_t = 8)]
-    pub max_queue: usize,
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=10_000))]
+    pub max_queue: u32,
     /// Finished jobs kept for download (oldest removed first).
-    #[arg(long, default_value_t = 32)]
-    pub keep_jobs: usize,
+    #[arg(long, default_value_t = 32, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    pub keep_jobs: u32,
     /// Largest request accepted, in MiB.
-    #[arg(long, default_value_t = 32)]
-    pub max_body_mb: usize,
+    #[arg(long, default_value_t = 32, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub max_body_mb: u32,
     /// Largest sketch or output side.
     #[arg(long, default_value_t = 8192)]
     pub max_side: u32,
@@ -98,7 +98,7 @@ pub struct WorkerArgs {
     pub listen: std::net::SocketAddr,
     /// Cluster token callers must present (or RIDGELINE_TOKEN). Required unless the
     /// worker listens on a loopback address.
-    #[arg(long, env = "RIDGELINE_TOKEN", hide_env_values = true)]
+    #[arg(long, env = "RIDGELINE_TOKEN", hide_env_values = true, value_parser = ridgeline_ops::auth::parse_token)]
     pub token: Option<String>,
     /// Folder for uploaded exemplars (by content hash) and their feature cache.
     #[arg(long)]
@@ -215,7 +215,7 @@ pub struct SynthArgs {
     #[arg(long)]
     pub workers_file: Option<PathBuf>,
     /// Cluster token (or RIDGELINE_TOKEN).
-    #[arg(long, env = "RIDGELINE_TOKEN", hide_env_values = true)]
+    #[arg(long, env = "RIDGELINE_TOKEN", hide_env_values = true, value_parser = ridgeline_ops::auth::parse_token)]
     pub token: Option<String>,
     /// CA certificate (PEM) to verify https:// workers.
     #[arg(long)]

@@ -104,12 +104,19 @@ pub async fn thumbnail(State(st): State<Arc<AppState>>, Path(name): Path<String>
     let png = tokio::task::spawn_blocking(move || st2.library.thumbnail(&name))
         .await
         .map_err(|_| ApiError(StatusCode::INTERNAL_SERVER_ERROR, "thumbnail task failed".into()))?
-        .map_err(not_found)?;
+        .map_err(|e| not_found(st.queue.redact(&e)))?;
     Ok(([(header::CONTENT_TYPE, "image/png"), (header::CACHE_CONTROL, "max-age=3600")], png).into_response())
 }
 
-/// Parses and checks a job request; the session validates the rest.
-fn parse_request(body: &[u8], max_side: u32) -> Result<(JobRequest, SketchSource), ApiError> {
+/// Most bytes a sketch image may decode to (an 8192² RGBA image at 8 bits; the same
+/// at 16 bits is refused: save it at 8 bits, or grey).
+pub const MAX_SKETCH_DECODED_BYTES: u64 = 256 << 20;
+
+/// Parses and checks a job request; the session validates the rest. Every size in it
+/// is bounded before it sizes any work: the body by the body limit, the strokes by
+/// their count, points and drawing work, a sketch image by its decoded bytes (judged
+/// from its header), decoded one at a time (`decoding`).
+fn parse_request(body: &[u8], max_side: u32, decoding: &std::sync::Mutex<()>) -> Result<(JobRequest, SketchSource), ApiError> {
     let req: JobRequest =
         serde_json::from_slice(body).map_err(|e| bad(format!("the job request is not valid JSON for a job: {e}")))?;
     let sketch = match &req.sketch {
@@ -117,8 +124,21 @@ fn parse_request(body: &[u8], max_side: u32) -> Result<(JobRequest, SketchSource
             let bytes = base64::engine::general_purpose::STANDARD
                 .decode(b64.trim())
                 .map_err(|e| bad(format!("the sketch is not valid base64: {e}")))?;
-            let img = ridgeline_terrain::io::decode_sketch(std::path::Path::new("the uploaded sketch"), &bytes, max_side)
+            let name = std::path::Path::new("the uploaded sketch");
+            let header = ridgeline_terrain::io::judge_image_header(name, &bytes, bytes.len() as u64, max_side)
                 .map_err(|e| bad(e.to_string()))?;
+            if header.decoded_bytes() > MAX_SKETCH_DECODED_BYTES {
+                return Err(bad(format!(
+                    "the uploaded sketch: {} x {} pixels of {} bytes decode to {} MiB, more than {} MiB: save it as 8-bit grey or RGB(A)",
+                    header.width,
+                    header.height,
+                    header.bytes_per_pixel,
+                    header.decoded_bytes() >> 20,
+                    MAX_SKETCH_DECODED_BYTES >> 20
+                )));
+            }
+            let _one_at_a_time = decoding.lock().unwrap_or_else(|e| e.into_inner());
+            let img = ridgeline_terrain::io::decode_sketch(name, &bytes, max_side).map_err(|e| bad(e.to_string()))?;
             SketchSource::Image(img)
         }
         SketchRequest::Strokes(s) => {
@@ -150,40 +170,51 @@ fn parse_request(body: &[u8], max_side: u32) -> Result<(JobRequest, SketchSource
     Ok((req, sketch))
 }
 
+/// The session a job request asks for, its outputs in `dir`.
+fn job_builder(
+    req: &JobRequest,
+    sketch: SketchSource,
+    cfg: &super::state::ServiceConfig,
+    dir: &std::path::Path,
+    cancel: crate::progress::CancelToken,
+) -> crate::session::SessionBuilder {
+    let mut b = Session::builder()
+        .sketch(sketch)
+        .exemplars(Exemplars::Library { path: cfg.library.clone(), only: req.exemplars.clone() })
+        .backend(cfg.backend.clone())
+        .seed(req.seed)
+        .patch_size(req.patch_size)
+        .threads(cfg.threads)
+        .cache_dir(cfg.cache_dir.clone())
+        .max_side(cfg.max_side)
+        .cancel(cancel)
+        .outputs(OutputFiles {
+            terrain: dir.join("terrain.tif"),
+            also: vec![dir.join("terrain16.png"), dir.join("terrain.r16")],
+            tiles: req.tiles,
+            preview: Some(dir.join("preview.png")),
+            report: Some(dir.join("report.json")),
+            debug_dir: req.debug.then(|| dir.to_path_buf()),
+        })
+        .keep_features_only(req.debug)
+        .elevation_range(req.elevation_range)
+        .erode(req.erode);
+    if let (Some(w), Some(h)) = (req.width, req.height) {
+        b = b.size(w, h);
+    }
+    b
+}
+
 pub async fn submit(State(st): State<Arc<AppState>>, body: Bytes) -> Result<Response, ApiError> {
-    let (req, sketch) = parse_request(&body, st.config.max_side)?;
     let cfg = st.config.clone();
     let queue = st.queue.clone();
-    // building a session reads and checks everything: off the async threads
+    let state = st.clone();
+    // parsing (a sketch image's decoding) and building a session (which reads and
+    // checks everything): off the async threads, so other requests are answered meanwhile
     let result = tokio::task::spawn_blocking(move || {
+        let (req, sketch) = parse_request(&body, cfg.max_side, &state.decoding).map_err(|e| SubmitError::Invalid(e.1))?;
         let size = (req.width.unwrap_or(0), req.height.unwrap_or(0), req.patch_size, req.seed);
-        queue.submit(size, |dir, cancel| {
-            let mut b = Session::builder()
-                .sketch(sketch)
-                .exemplars(Exemplars::Library { path: cfg.library.clone(), only: req.exemplars.clone() })
-                .backend(cfg.backend.clone())
-                .seed(req.seed)
-                .patch_size(req.patch_size)
-                .threads(cfg.threads)
-                .cache_dir(cfg.cache_dir.clone())
-                .max_side(cfg.max_side)
-                .cancel(cancel)
-                .outputs(OutputFiles {
-                    terrain: dir.join("terrain.tif"),
-                    also: vec![dir.join("terrain16.png"), dir.join("terrain.r16")],
-                    tiles: req.tiles,
-                    preview: Some(dir.join("preview.png")),
-                    report: Some(dir.join("report.json")),
-                    debug_dir: req.debug.then(|| dir.to_path_buf()),
-                })
-                .keep_features_only(req.debug)
-                .elevation_range(req.elevation_range)
-                .erode(req.erode);
-            if let (Some(w), Some(h)) = (req.width, req.height) {
-                b = b.size(w, h);
-            }
-            b
-        })
+        queue.submit(size, |dir, cancel| job_builder(&req, sketch, &cfg, dir, cancel))
     })
     .await
     .map_err(|_| ApiError(StatusCode::INTERNAL_SERVER_ERROR, "submit task failed".into()))?;
@@ -328,7 +359,7 @@ pub async fn heights(
     })
     .await
     .map_err(|_| ApiError(StatusCode::INTERNAL_SERVER_ERROR, "heights task failed".into()))?
-    .map_err(|e| ApiError(StatusCode::INTERNAL_SERVER_ERROR, e))?;
+    .map_err(|e| ApiError(StatusCode::INTERNAL_SERVER_ERROR, st.queue.redact(&e)))?;
     Ok((
         [
             (header::CONTENT_TYPE, "application/octet-stream".to_string()),
@@ -338,4 +369,187 @@ pub async fn heights(
         bytes,
     )
         .into_response())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+    use serde_json::{json, Value};
+
+    /// A library of one small DEM and a service config reading it, made once.
+    fn config() -> &'static (super::super::state::ServiceConfig, std::path::PathBuf) {
+        static CFG: std::sync::OnceLock<(super::super::state::ServiceConfig, std::path::PathBuf)> = std::sync::OnceLock::new();
+        CFG.get_or_init(|| {
+            let d = std::env::temp_dir().join(format!("rl-api-prop-{}", std::process::id()));
+            let lib = d.join("lib");
+            std::fs::create_dir_all(&lib).unwrap();
+            std::fs::create_dir_all(d.join("job")).unwrap();
+            let img = image::ImageBuffer::from_fn(96, 96, |x, y| image::Luma([(1000 + x * 13 + (y * 7) % 50) as u16]));
+            img.save(lib.join("a.png")).unwrap();
+            let cfg = super::super::state::ServiceConfig { library: lib, max_side: 2048, cache_dir: None, ..Default::default() };
+            (cfg, d.join("job"))
+        })
+    }
+
+    fn png(w: u32, h: u32) -> String {
+        let img = image::GrayImage::from_fn(w, h, |x, _| image::Luma([if x == w / 2 { 255 } else { 128 }]));
+        let mut out = Vec::new();
+        img.write_to(&mut std::io::Cursor::new(&mut out), image::ImageFormat::Png).unwrap();
+        base64::engine::general_purpose::STANDARD.encode(out)
+    }
+
+    /// Numbers as a hostile client sends them: small, huge, negative, fractional.
+    fn number() -> impl Strategy<Value = Value> {
+        prop_oneof![
+            (0u64..300).prop_map(|v| json!(v)),
+            Just(json!(4_294_967_297u64)),
+            Just(json!(u64::MAX)),
+            Just(json!(-1)),
+            Just(json!(1.5)),
+            Just(json!(1e300)),
+            any::<i64>().prop_map(|v| json!(v)),
+            (-3.0e7f64..3.0e7).prop_map(|v| json!(v)),
+        ]
+    }
+
+    fn stroke() -> impl Strategy<Value = Value> {
+        let pen = prop_oneof![Just("ridge"), Just("valley"), Just("eraser"), Just("cliff")];
+        let point = prop::collection::vec(number(), 0..3);
+        (pen, number(), prop::collection::vec(point, 0..6), prop::option::of(prop::collection::vec(number(), 0..6))).prop_map(
+            |(pen, width, points, elevations)| {
+                let mut s = json!({ "pen": pen, "width": width, "points": points });
+                if let Some(e) = elevations {
+                    s["elevations"] = json!(e);
+                }
+                s
+            },
+        )
+    }
+
+    fn sketch() -> impl Strategy<Value = Value> {
+        prop_oneof![
+            (number(), number(), prop::collection::vec(stroke(), 0..4))
+                .prop_map(|(w, h, strokes)| json!({ "strokes": { "width": w, "height": h, "strokes": strokes } })),
+            (1u32..40, 1u32..40).prop_map(|(w, h)| json!({ "png_base64": png(w, h) })),
+            Just(json!({ "png_base64": "iVBORw0KGgo=" })),
+            Just(json!({ "png_base64": 7 })),
+            Just(json!("nothing")),
+        ]
+    }
+
+    fn request() -> impl Strategy<Value = Value> {
+        let fields = prop::collection::vec(
+            (
+                prop_oneof![Just("seed"), Just("patch_size"), Just("width"), Just("height"), Just("tiles"), Just("erode")],
+                number(),
+            ),
+            0..5,
+        );
+        (sketch(), fields, any::<bool>(), prop::option::of((number(), number()))).prop_map(|(sketch, fields, debug, range)| {
+            let mut r = json!({ "sketch": sketch, "debug": debug });
+            for (k, v) in fields {
+                r[k] = v;
+            }
+            if let Some((lo, hi)) = range {
+                r["elevation_range"] = json!([lo, hi]);
+            }
+            r
+        })
+    }
+
+    fn build(req: Value) -> Result<(usize, usize), String> {
+        let (cfg, dir) = config();
+        let (r, sketch) =
+            parse_request(&serde_json::to_vec(&req).unwrap(), cfg.max_side, &std::sync::Mutex::new(())).map_err(|e| e.1)?;
+        let s = job_builder(&r, sketch, cfg, dir, crate::progress::CancelToken::new()).build().map_err(|e| e.to_string())?;
+        Ok(s.size())
+    }
+
+    #[test]
+    fn sizes_from_a_request_are_bounded_before_they_size_anything() {
+        assert_eq!(build(json!({ "sketch": { "png_base64": png(32, 24) }, "tiles": 16 })), Ok((32, 24)));
+        for tiles in [json!(4_294_967_297u64), json!(u64::MAX), json!(4096), json!(1)] {
+            let e = build(json!({ "sketch": { "png_base64": png(32, 24) }, "tiles": tiles })).unwrap_err();
+            assert!(e.contains("a tile needs 2 to 32 samples"), "{tiles}: {e}");
+        }
+        let e = build(json!({ "sketch": { "png_base64": png(1, 1) } })).unwrap_err();
+        assert!(e.contains("a sketch of 1 x 1") && e.contains("16..="), "{e}");
+        let e = build(json!({ "sketch": { "png_base64": png(3, 300) } })).unwrap_err();
+        assert!(e.contains("16..="), "{e}");
+        let e = build(json!({ "sketch": { "png_base64": png(32, 32) }, "patch_size": 8 })).unwrap_err();
+        assert!(e.contains("16..=512"), "{e}");
+        let zigzag: Vec<[f32; 2]> = (0..20_000).map(|i| if i % 2 == 0 { [0.0, 0.0] } else { [511.0, 511.0] }).collect();
+        let t = std::time::Instant::now();
+        let e = build(json!({ "sketch": { "strokes": { "width": 512, "height": 512, "strokes": [{ "pen": "ridge", "width": 64, "points": zigzag }] } } }))
+            .unwrap_err();
+        assert!(e.contains("cell tests") && t.elapsed().as_secs_f32() < 2.0, "{e}");
+        // 21 points on an 8192² canvas, drawn for a 2048² output: answered at once
+        let points: Vec<[f32; 2]> = (0..21).map(|i| [(i % 2) as f32 * 8191.0, i as f32 * 400.0]).collect();
+        let t = std::time::Instant::now();
+        let r = build(
+            json!({ "sketch": { "strokes": { "width": 2048, "height": 2048, "strokes": [{ "pen": "ridge", "width": 9, "points": points }] } } }),
+        );
+        assert!(r.is_err() || t.elapsed().as_secs_f32() < 2.0, "{r:?}");
+        // an 8192² RGBA 16-bit sketch (512 MiB of pixels) is refused from its header,
+        // before it decodes
+        let body = serde_json::to_vec(&json!({ "sketch": { "png_base64": base64::engine::general_purpose::STANDARD.encode(png_header(8192, 8192, 16, 6, 600_000)) } })).unwrap();
+        let e = parse_request(&body, 8192, &std::sync::Mutex::new(())).err().map(|e| e.1).unwrap_or_default();
+        assert!(e.contains("decode to 512 MiB, more than 256 MiB"), "{e}");
+    }
+
+    /// A PNG's signature and header chunk claiming `w x h` pixels of `depth` bits and
+    /// colour type `colour`, then `junk` bytes of data.
+    fn png_header(w: u32, h: u32, depth: u8, colour: u8, junk: usize) -> Vec<u8> {
+        fn crc32(bytes: &[u8]) -> u32 {
+            let mut c = !0u32;
+            for &b in bytes {
+                c ^= b as u32;
+                for _ in 0..8 {
+                    c = if c & 1 != 0 { 0xEDB8_8320 ^ (c >> 1) } else { c >> 1 };
+                }
+            }
+            !c
+        }
+        let chunk = |kind: &[u8], data: &[u8]| {
+            let mut c = (data.len() as u32).to_be_bytes().to_vec();
+            let body: Vec<u8> = kind.iter().chain(data).copied().collect();
+            c.extend_from_slice(&body);
+            c.extend_from_slice(&crc32(&body).to_be_bytes());
+            c
+        };
+        let mut ihdr = w.to_be_bytes().to_vec();
+        ihdr.extend_from_slice(&h.to_be_bytes());
+        ihdr.extend_from_slice(&[depth, colour, 0, 0, 0]);
+        let mut out = b"\x89PNG\r\n\x1a\n".to_vec();
+        out.extend(chunk(b"IHDR", &ihdr));
+        out.extend(chunk(b"IDAT", &vec![7u8; junk]));
+        out
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 256, failure_persistence: None, ..Default::default() })]
+
+        /// Whatever a client sends, the request is answered: refused with a sentence,
+        /// or taken as a job whose every size is within the service's bounds. Nothing
+        /// panics, and nothing is sized by an unchecked number.
+        #[test]
+        fn any_job_request_is_refused_with_a_reason_or_bounded(req in request()) {
+            let (cfg, dir) = config();
+            let body = serde_json::to_vec(&req).unwrap();
+            match parse_request(&body, cfg.max_side, &std::sync::Mutex::new(())) {
+                Err(ApiError(code, message)) => prop_assert!(code == StatusCode::BAD_REQUEST && !message.is_empty()),
+                Ok((r, sketch)) => match job_builder(&r, sketch, cfg, dir, crate::progress::CancelToken::new()).build() {
+                    Err(e) => prop_assert!(!e.to_string().is_empty()),
+                    Ok(s) => {
+                        let (w, h) = s.size();
+                        prop_assert!((16..=2048).contains(&w) && (16..=2048).contains(&h), "{w} x {h}");
+                        if let Some(t) = r.tiles {
+                            prop_assert!((2..=w.max(h)).contains(&t), "tiles of {t}");
+                        }
+                    }
+                },
+            }
+        }
+    }
 }

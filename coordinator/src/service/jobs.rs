@@ -100,6 +100,9 @@ pub struct JobQueue {
     pub keep: usize,
     /// Folder of the jobs' folders.
     pub root: PathBuf,
+    /// Server paths no message to a client shows (the jobs' folder, the library):
+    /// errors name files relative to them.
+    hidden: Arc<Vec<(PathBuf, &'static str)>>,
 }
 
 /// Why a job was not taken.
@@ -117,7 +120,61 @@ impl JobQueue {
     pub fn new(root: PathBuf, max_queued: usize, keep: usize) -> Self {
         let (events, _) = tokio::sync::broadcast::channel(4096);
         let inner = Inner { jobs: BTreeMap::new(), queue: VecDeque::new(), finished: VecDeque::new(), next: 1, shutdown: false };
-        JobQueue { inner: Arc::new((Mutex::new(inner), Condvar::new())), events, max_queued, keep: keep.max(1), root }
+        let hidden = Arc::new(vec![(root.clone(), "the jobs folder")]);
+        JobQueue { inner: Arc::new((Mutex::new(inner), Condvar::new())), events, max_queued, keep: keep.max(1), root, hidden }
+    }
+
+    /// Also hides `path` (the library) from the messages clients see, calling it
+    /// `label` where it is named itself.
+    pub fn hiding(mut self, path: &std::path::Path, label: &'static str) -> Self {
+        let mut all = (*self.hidden).clone();
+        all.push((path.to_path_buf(), label));
+        self.hidden = Arc::new(all);
+        self
+    }
+
+    /// `message` as a client sees it: the hidden server paths taken out (a file under
+    /// one is named relative to it).
+    pub fn redact(&self, message: &str) -> String {
+        let mut out = message.to_string();
+        for (root, label) in self.hidden.iter() {
+            let canonical = root.canonicalize().ok();
+            for r in [Some(root.clone()), canonical].into_iter().flatten() {
+                let r = r.to_string_lossy().trim_end_matches('/').to_string();
+                if r.is_empty() || r == "." {
+                    continue;
+                }
+                out = out.replace(&format!("{r}/"), "").replace(&r, label);
+            }
+        }
+        out
+    }
+
+    /// Takes the jobs' folder for this service: refused while another live service
+    /// holds it (two would remove each other's jobs), else marked as this process's,
+    /// and the folders a previous instance left (its jobs are forgotten with it, their
+    /// temporary files included) removed. Only names a job folder can have are removed.
+    pub fn claim_root(&self) -> std::io::Result<()> {
+        std::fs::create_dir_all(&self.root)?;
+        let owner = self.root.join(".owner");
+        if let Some(pid) = std::fs::read_to_string(&owner).ok().and_then(|s| s.trim().parse::<u32>().ok()) {
+            // without /proc, which processes live is unknown: taken as alive
+            let alive = !std::path::Path::new("/proc/self").exists() || std::path::Path::new(&format!("/proc/{pid}")).exists();
+            if pid != std::process::id() && alive {
+                return Err(std::io::Error::other(format!(
+                    "another ridgeline service (process {pid}) uses this jobs folder; give each service its own --jobs-dir"
+                )));
+            }
+        }
+        std::fs::write(&owner, std::process::id().to_string())?;
+        for e in std::fs::read_dir(&self.root)?.filter_map(|e| e.ok()) {
+            let name = e.file_name().to_string_lossy().into_owned();
+            if is_job_folder_name(&name) && e.file_type().is_ok_and(|t| t.is_dir()) {
+                tracing::info!(folder = %name, "a previous instance's job folder removed");
+                let _ = std::fs::remove_dir_all(e.path());
+            }
+        }
+        Ok(())
     }
 
     fn lock(&self) -> MutexGuard<'_, Inner> {
@@ -152,13 +209,14 @@ impl JobQueue {
             g.next += 1;
             (id.clone(), self.root.join(&id), CancelToken::new())
         };
-        std::fs::create_dir_all(&dir).map_err(|e| SubmitError::Invalid(format!("cannot create {}: {e}", dir.display())))?;
+        std::fs::create_dir_all(&dir)
+            .map_err(|e| SubmitError::Invalid(self.redact(&format!("cannot create {}: {e}", dir.display()))))?;
         let sink = Arc::new(Sink { queue: self.clone(), id: id.clone() });
         let session = match make(&dir, cancel.clone()).progress(sink).build() {
             Ok(s) => s,
             Err(e) => {
                 let _ = std::fs::remove_dir_all(&dir);
-                return Err(SubmitError::Invalid(e.to_string()));
+                return Err(SubmitError::Invalid(self.redact(&e.to_string())));
             }
         };
         let (w, h, patch, seed) = size;
@@ -230,14 +288,21 @@ impl JobQueue {
             return Some(false);
         }
         job.cancel.cancel();
-        if job.status.state == JobState::Queued {
+        let queued = job.status.state == JobState::Queued;
+        if queued {
             job.status.state = JobState::Cancelled;
             job.session = None;
+            // it never ran: its folder holds nothing
+            let _ = std::fs::remove_dir_all(&job.dir);
             g.queue.retain(|q| q != id);
             self.finish_locked(&mut g, id);
         }
         drop(g);
-        tracing::info!(job = %id, "job cancelled");
+        if queued {
+            tracing::info!(job = %id, "job cancelled before it ran");
+        } else {
+            tracing::info!(job = %id, "job cancel requested: it stops at its next check");
+        }
         self.publish_status(id);
         Some(true)
     }
@@ -297,11 +362,16 @@ impl JobQueue {
             let Some(session) = session else { continue };
             let span = tracing::info_span!("job", job_id = %id);
             let _g = span.enter();
+            let cancel = self.lock().jobs.get(&id).map(|j| j.cancel.clone());
             let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| session.run()));
+            // a cancel that came after the last check still cancels: the job was told
+            // it is cancelled (and the log said so), so it does not end as done
+            let cancelled = cancel.is_some_and(|c| c.is_cancelled());
             let (state, error) = match result {
+                Ok(Ok(_)) if cancelled => (JobState::Cancelled, None),
                 Ok(Ok(_)) => (JobState::Done, None),
                 Ok(Err(e)) if e.is_cancelled() => (JobState::Cancelled, None),
-                Ok(Err(e)) => (JobState::Failed, Some(e.to_string())),
+                Ok(Err(e)) => (JobState::Failed, Some(self.redact(&e.to_string()))),
                 Err(_) => (JobState::Failed, Some("internal error: the job panicked (see the service log)".to_string())),
             };
             match &error {
@@ -326,6 +396,13 @@ impl JobQueue {
             self.publish_status(&id);
         }
     }
+}
+
+/// Whether `name` is one a job's folder gets (`j`, six digits, `-`, hex).
+fn is_job_folder_name(name: &str) -> bool {
+    let Some(rest) = name.strip_prefix('j') else { return false };
+    let Some((n, h)) = rest.split_once('-') else { return false };
+    n.len() == 6 && n.bytes().all(|b| b.is_ascii_digit()) && !h.is_empty() && h.bytes().all(|b| b.is_ascii_hexdigit())
 }
 
 /// The plain files of a folder, sorted.

@@ -48,6 +48,23 @@ impl Default for ServiceConfig {
     }
 }
 
+impl ServiceConfig {
+    /// Refuses settings that would make a service that takes no job, or one that
+    /// takes every caller: a queue or body limit of 0, an empty token.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.max_queue == 0 || self.max_body == 0 || self.keep_jobs == 0 {
+            return Err(format!(
+                "max_queue {}, max_body {} and keep_jobs {}: each must be at least 1",
+                self.max_queue, self.max_body, self.keep_jobs
+            ));
+        }
+        if let Some(t) = &self.token {
+            ridgeline_ops::auth::parse_token(t)?;
+        }
+        Ok(())
+    }
+}
+
 /// The library as the page sees it: names, sizes, thumbnails made on first request.
 pub struct LibraryIndex {
     specs: Vec<ExemplarSpec>,
@@ -94,4 +111,7 @@ pub struct AppState {
     pub config: ServiceConfig,
     pub queue: JobQueue,
     pub library: LibraryIndex,
+    /// Held while a sketch image decodes: one at a time, so concurrent uploads cost
+    /// one decode's memory, not one each.
+    pub decoding: Mutex<()>,
 }
