@@ -159,6 +159,12 @@ impl StrokeSketch {
     /// (scanning its bounding box made a diagonal across a large canvas cost the
     /// whole canvas); [`stroke_work`] says what it will cost before it runs.
     pub fn rasterize(&self) -> Grid<u8> {
+        self.draw(for_each_reachable_cell)
+    }
+
+    /// Draws the strokes, testing the cells `cells(a, b, r, w, h, f)` lists for each
+    /// segment from `a` to `b` of radius at most `r` (a superset of its capsule's).
+    fn draw(&self, cells: CellWalk) -> Grid<u8> {
         let mut g = Grid::new(self.width, self.height, 128u8);
         for s in &self.strokes {
             let value = match s.pen {
@@ -171,7 +177,7 @@ impl StrokeSketch {
                 let (ra, rb) = (radius(ia), radius(ib));
                 let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
                 let len2 = dx * dx + dy * dy;
-                for_each_reachable_cell(a, b, ra.max(rb), self.width, self.height, |x, y| {
+                cells(a, b, ra.max(rb), self.width, self.height, &mut |x, y| {
                     // distance from the cell centre to the segment
                     let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
                     let t = if len2 > 0.0 { (((px - a[0]) * dx + (py - a[1]) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
@@ -254,8 +260,11 @@ fn reachable_rows(a: [f32; 2], b: [f32; 2], r: f32, w: usize, h: usize) -> impl 
     })
 }
 
+/// How a segment's candidate cells are walked: `(a, b, r, w, h, f)` calls `f(x, y)`.
+type CellWalk = fn([f32; 2], [f32; 2], f32, usize, usize, &mut dyn FnMut(usize, usize));
+
 /// Calls `f(x, y)` for every cell [`reachable_rows`] lists.
-fn for_each_reachable_cell(a: [f32; 2], b: [f32; 2], r: f32, w: usize, h: usize, mut f: impl FnMut(usize, usize)) {
+fn for_each_reachable_cell(a: [f32; 2], b: [f32; 2], r: f32, w: usize, h: usize, f: &mut dyn FnMut(usize, usize)) {
     for (y, x0, x1) in reachable_rows(a, b, r, w, h) {
         for x in x0..x1 {
             f(x, y);
@@ -399,39 +408,17 @@ mod tests {
         assert!(column(6) <= 3 && (10..=13).contains(&column(58)), "{} {}", column(6), column(58));
     }
 
-    /// The rasteriser as it was: every segment tested over its whole bounding box.
-    fn rasterize_by_bounding_boxes(sk: &StrokeSketch) -> Grid<u8> {
-        let mut g = Grid::new(sk.width, sk.height, 128u8);
-        for s in &sk.strokes {
-            let value = match s.pen {
-                Pen::Draw(kind) => raster_value(kind),
-                Pen::Eraser => 128,
-            };
-            let radius = |i: usize| (s.width_at(i) / 2.0).max(0.5);
-            for (ia, ib) in segments(s) {
-                let (a, b) = (s.points[ia], s.points[ib]);
-                let (ra, rb) = (radius(ia), radius(ib));
-                let r = ra.max(rb);
-                let x0 = (a[0].min(b[0]) - r).floor().max(0.0) as usize;
-                let y0 = (a[1].min(b[1]) - r).floor().max(0.0) as usize;
-                let x1 = ((a[0].max(b[0]) + r).ceil().max(0.0) as usize).min(sk.width);
-                let y1 = ((a[1].max(b[1]) + r).ceil().max(0.0) as usize).min(sk.height);
-                for y in y0..y1 {
-                    for x in x0..x1 {
-                        let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
-                        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-                        let len2 = dx * dx + dy * dy;
-                        let t = if len2 > 0.0 { (((px - a[0]) * dx + (py - a[1]) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
-                        let (qx, qy) = (a[0] + t * dx - px, a[1] + t * dy - py);
-                        let rt = ra + t * (rb - ra);
-                        if qx * qx + qy * qy <= rt * rt {
-                            g.set(x, y, value);
-                        }
-                    }
-                }
+    /// The rasteriser as it was: every segment's whole bounding box tested.
+    fn bounding_box(a: [f32; 2], b: [f32; 2], r: f32, w: usize, h: usize, f: &mut dyn FnMut(usize, usize)) {
+        let x0 = (a[0].min(b[0]) - r).floor().max(0.0) as usize;
+        let y0 = (a[1].min(b[1]) - r).floor().max(0.0) as usize;
+        let x1 = ((a[0].max(b[0]) + r).ceil().max(0.0) as usize).min(w);
+        let y1 = ((a[1].max(b[1]) + r).ceil().max(0.0) as usize).min(h);
+        for y in y0..y1 {
+            for x in x0..x1 {
+                f(x, y);
             }
         }
-        g
     }
 
     fn arb_sketch() -> impl proptest::strategy::Strategy<Value = StrokeSketch> {
@@ -457,7 +444,7 @@ mod tests {
         #[test]
         fn the_rasteriser_draws_what_the_scan_drew_within_its_stated_work(sk in arb_sketch()) {
             proptest::prop_assert!(sk.validate(4096).is_ok(), "{:?}", sk.validate(4096));
-            proptest::prop_assert_eq!(sk.rasterize(), rasterize_by_bounding_boxes(&sk));
+            proptest::prop_assert_eq!(sk.rasterize(), sk.draw(bounding_box));
             let mut tested = 0u64;
             for s in &sk.strokes {
                 for (ia, ib) in segments(s) {
