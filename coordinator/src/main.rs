@@ -153,13 +153,13 @@ fn worker(a: WorkerArgs) -> Result<()> {
         token: a.token,
         max_exemplar_bytes: a.max_exemplar_mb << 20,
         max_shards: 8,
-        threads: a.threads,
+        threads: a.threads as usize,
         gpu: ridgeline_worker::open_device(a.gpu)?,
         connections: ridgeline_worker::connection_guard::Limits {
             handshake_timeout: std::time::Duration::from_secs(a.handshake_timeout_s.max(1)),
             max_pending: 256,
-            max_connections: a.max_connections.max(1),
-            max_per_caller: a.max_per_caller.max(1),
+            max_connections: a.max_connections as usize,
+            max_per_caller: a.max_per_caller as usize,
         },
     };
     let (backend, adapter) = match &cfg.gpu {
@@ -323,7 +323,7 @@ fn fetch(a: FetchArgs) -> Result<()> {
     } else {
         Box::new(HttpSource::new(&a.source))
     };
-    let (h, cell) = fetch_area(bbox, a.zoom, source.as_ref(), &cache, a.max_tiles)?;
+    let (h, cell) = fetch_area(bbox, a.zoom, source.as_ref(), &cache, a.max_tiles as usize)?;
     let manifest = write_exemplar(&a.out, &name, &h, cell)?;
     eprintln!(
         "wrote {} x {} cells at {:.1} m to {}; use --exemplars {}",

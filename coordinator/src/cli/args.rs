@@ -63,7 +63,7 @@ pub struct ServeArgs {
     #[arg(long)]
     pub tls_ca: Option<PathBuf>,
     /// Deadline of one worker call, in seconds.
-    #[arg(long, default_value_t = 120)]
+    #[arg(long, default_value_t = 120, value_parser = clap::value_parser!(u64).range(1..=86_400))]
     pub call_timeout_s: u64,
     /// Folder for the jobs' outputs (default: a folder in the temporary directory).
     #[arg(long)]
@@ -78,7 +78,7 @@ pub struct ServeArgs {
     #[arg(long, default_value_t = 32, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub max_body_mb: u32,
     /// Largest sketch or output side.
-    #[arg(long, default_value_t = 8192)]
+    #[arg(long, default_value_t = 8192, value_parser = clap::value_parser!(u32).range(16..=65_536))]
     pub max_side: u32,
     /// Threads per job (0 = all cores).
     #[arg(long, default_value_t = 0)]
@@ -104,15 +104,15 @@ pub struct WorkerArgs {
     #[arg(long)]
     pub data_dir: Option<PathBuf>,
     /// Scoring threads (0 = all cores).
-    #[arg(long, default_value_t = 0)]
-    pub threads: usize,
+    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=1024))]
+    pub threads: u32,
     /// TLS certificate and key (PEM); without them the worker speaks plain HTTP/2.
     #[arg(long, requires = "tls_key")]
     pub tls_cert: Option<PathBuf>,
     #[arg(long, requires = "tls_cert")]
     pub tls_key: Option<PathBuf>,
     /// Largest exemplar upload accepted, in MiB.
-    #[arg(long, default_value_t = 2048)]
+    #[arg(long, default_value_t = 2048, value_parser = clap::value_parser!(u64).range(1..=1_048_576))]
     pub max_exemplar_mb: u64,
     /// Score on the GPU: auto (a real GPU if present, else the CPU), on (fail without
     /// one), off, or software (any Vulkan adapter, Mesa's lavapipe included: for
@@ -120,14 +120,14 @@ pub struct WorkerArgs {
     #[arg(long, default_value = "auto")]
     pub gpu: ridgeline_worker::GpuMode,
     /// Seconds a new connection may stay silent before it is closed.
-    #[arg(long, default_value_t = 10)]
+    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u64).range(1..=3_600))]
     pub handshake_timeout_s: u64,
     /// Most established connections (a connection over it is closed and logged), and
     /// most from one caller address.
-    #[arg(long, default_value_t = 256)]
-    pub max_connections: usize,
-    #[arg(long, default_value_t = 64)]
-    pub max_per_caller: usize,
+    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    pub max_connections: u32,
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    pub max_per_caller: u32,
     /// Serve Prometheus metrics (GET /metrics) on this address.
     #[arg(long)]
     pub metrics_listen: Option<std::net::SocketAddr>,
@@ -205,7 +205,7 @@ pub struct SynthArgs {
     #[arg(long)]
     pub report: Option<PathBuf>,
     /// Refuse images with a side longer than this, before allocating them.
-    #[arg(long, default_value_t = ridgeline_terrain::io::DEFAULT_MAX_SIDE)]
+    #[arg(long, default_value_t = ridgeline_terrain::io::DEFAULT_MAX_SIDE, value_parser = clap::value_parser!(u32).range(16..=65_536))]
     pub max_side: u32,
     /// Score on these gRPC workers (comma-separated URLs, e.g. http://10.0.0.5:7070)
     /// instead of in-process.
@@ -221,7 +221,7 @@ pub struct SynthArgs {
     #[arg(long)]
     pub tls_ca: Option<PathBuf>,
     /// Deadline of one worker call, in seconds; a worker that misses it is treated as dead.
-    #[arg(long, default_value_t = 120)]
+    #[arg(long, default_value_t = 120, value_parser = clap::value_parser!(u64).range(1..=86_400))]
     pub call_timeout_s: u64,
     /// User patches per round-1 block.
     #[arg(long, default_value_t = 16)]
@@ -265,8 +265,8 @@ pub struct FetchArgs {
     #[arg(long)]
     pub cache_dir: Option<PathBuf>,
     /// Refuse areas needing more tiles than this.
-    #[arg(long, default_value_t = 64)]
-    pub max_tiles: usize,
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    pub max_tiles: u32,
 }
 
 #[derive(clap::Args)]
