@@ -159,7 +159,16 @@ fn a_stroked_sketch_becomes_a_terrain_with_every_download_and_a_ridge_under_the_
         assert!(stages.contains(&want), "stage {want} in {stages:?}");
     }
     let files: Vec<&str> = fin["files"].as_array().unwrap().iter().map(|f| f.as_str().unwrap()).collect();
-    for want in ["terrain.tif", "terrain16.png", "terrain16.json", "terrain.r16", "terrain.json", "preview.png", "report.json"] {
+    for want in [
+        "terrain.tif",
+        "terrain.exr",
+        "terrain16.png",
+        "terrain16.json",
+        "terrain.r16",
+        "terrain.json",
+        "preview.png",
+        "report.json",
+    ] {
         assert!(files.contains(&want), "{want} in {files:?}");
     }
     assert!(files.iter().any(|f| f.starts_with("terrain_x1_y0")), "tiles: {files:?}");

@@ -175,6 +175,7 @@ async function finished(status) {
   list.textContent = '';
   const describe = {
     'terrain.tif': '32-bit float TIFF, metres',
+    'terrain.exr': 'OpenEXR, 32-bit float metres (one channel, Y)',
     'terrain16.png': '16-bit PNG (with terrain16.json: the mapping to metres)',
     'terrain16.json': 'sidecar of the 16-bit PNG',
     'terrain.r16': 'RAW16, little-endian (with terrain.json)',

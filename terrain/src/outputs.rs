@@ -3,7 +3,11 @@
 //! - `.png`: 16-bit, with a `.json` sidecar (`min_elevation`, `scale`, `unit`) that
 //!   converts samples back to metres;
 //! - `.r16`: raw little-endian 16-bit samples (as game engines import heightmaps),
-//!   with the same sidecar;
+//!   with the same sidecar; the sidecar also gives the cell size and the engine
+//!   settings that reproduce the metres exactly (Unreal's landscape Z scale and
+//!   location, Unity's terrain height and position);
+//! - `.exr`: OpenEXR, one 32-bit float channel `Y` of metres, lossless (ZIP), the cell
+//!   size in a `cellSizeMetres` attribute (written with the `exr` crate);
 //! - tiles: N x N-sample tiles sharing their border row and column with the next tile
 //!   (the layout Unreal and Unity landscape imports expect), named
 //!   `{stem}_x{col}_y{row}.{ext}`, with a `{stem}_tiles.json` index; 16-bit tiles all
@@ -15,7 +19,8 @@ use crate::grid::{Grid, Heightfield};
 use crate::io::{write_atomic, write_atomic_with};
 use std::path::{Path, PathBuf};
 
-/// Sidecar of 16-bit outputs: `metres = min_elevation + sample * scale`.
+/// Sidecar of 16-bit outputs: `metres = min_elevation + sample * scale`, and what an
+/// engine import needs to reproduce those metres.
 #[derive(Debug, Clone, serde::Serialize, serde::Deserialize, PartialEq)]
 pub struct Png16Sidecar {
     pub min_elevation: f64,
@@ -24,6 +29,39 @@ pub struct Png16Sidecar {
     pub width: usize,
     pub height: usize,
     pub scale: f64,
+    /// Horizontal cell size in metres, where known.
+    #[serde(default)]
+    pub cell_size_m: Option<f64>,
+    /// Unreal Engine landscape import: the actor's scale and location that give these
+    /// metres (`metres = (sample - 32768) * z_scale / 12800 + location_z / 100`).
+    #[serde(default)]
+    pub unreal: Option<UnrealLandscape>,
+    /// Unity terrain import: `metres = sample / 65535 * terrain_height + position_y`.
+    #[serde(default)]
+    pub unity: Option<UnityTerrain>,
+}
+
+/// An Unreal landscape actor's transform for a 16-bit heightmap (centimetres).
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize, PartialEq)]
+pub struct UnrealLandscape {
+    /// Landscape scale X and Y: one quad per cell.
+    pub xy_scale: f64,
+    /// Landscape scale Z: a sample step is `z_scale / 128` cm.
+    pub z_scale: f64,
+    /// Landscape location Z, where sample 32768 stands.
+    pub location_z: f64,
+}
+
+/// A Unity terrain's settings for a 16-bit heightmap (metres).
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize, PartialEq)]
+pub struct UnityTerrain {
+    /// `TerrainData.size.x` and `.z`: the terrain's extent (`(cells - 1) * cell`).
+    pub width: f64,
+    pub length: f64,
+    /// `TerrainData.size.y`: the height sample 65535 reaches above the position.
+    pub terrain_height: f64,
+    /// The terrain object's position y: where sample 0 stands.
+    pub position_y: f64,
 }
 
 impl Png16Sidecar {
@@ -31,7 +69,42 @@ impl Png16Sidecar {
     pub fn for_range(lo: f32, hi: f32, width: usize, height: usize) -> Self {
         let span = (hi - lo) as f64;
         let scale = if span > 0.0 { span / 65535.0 } else { 1.0 };
-        Png16Sidecar { min_elevation: lo as f64, max_elevation: hi as f64, unit: "m".into(), width, height, scale }
+        let min = lo as f64;
+        Png16Sidecar {
+            min_elevation: min,
+            max_elevation: hi as f64,
+            unit: "m".into(),
+            width,
+            height,
+            scale,
+            cell_size_m: None,
+            unreal: Some(UnrealLandscape {
+                xy_scale: 100.0,
+                z_scale: scale * 12_800.0,
+                location_z: (min + 32_768.0 * scale) * 100.0,
+            }),
+            unity: Some(UnityTerrain {
+                width: (width.max(1) - 1) as f64,
+                length: (height.max(1) - 1) as f64,
+                terrain_height: scale * 65_535.0,
+                position_y: min,
+            }),
+        }
+    }
+
+    /// The same mapping, with the horizontal cell size (metres) where known.
+    pub fn with_cell(mut self, cell: Option<f32>) -> Self {
+        let c = cell.map(|c| c as f64);
+        self.cell_size_m = c;
+        let c = c.unwrap_or(1.0);
+        if let Some(u) = &mut self.unreal {
+            u.xy_scale = c * 100.0;
+        }
+        if let Some(u) = &mut self.unity {
+            u.width = (self.width.max(1) - 1) as f64 * c;
+            u.length = (self.height.max(1) - 1) as f64 * c;
+        }
+        self
     }
     pub fn quantise(&self, v: f32) -> u16 {
         (((v as f64 - self.min_elevation) / self.scale).round()).clamp(0.0, 65535.0) as u16
@@ -100,6 +173,57 @@ pub fn encode_tiff_f32(h: &Heightfield) -> Result<Vec<u8>> {
     encode_tiff_f32_with_cell(h, None)
 }
 
+/// Name of the EXR attribute holding the cell size in metres.
+pub const EXR_CELL_ATTRIBUTE: &str = "cellSizeMetres";
+
+/// Streams a heightfield as a one-channel (`Y`) 32-bit float OpenEXR, ZIP-compressed
+/// (lossless), into `w`.
+pub fn write_exr_f32<W: std::io::Write + std::io::Seek>(w: &mut W, h: &Heightfield, cell: Option<f32>) -> std::io::Result<()> {
+    use exr::prelude::*;
+    let channels = SpecificChannels::build().with_channel("Y").with_pixel_fn(|p: Vec2<usize>| (h.data[p.y() * h.width + p.x()],));
+    let mut attributes = LayerAttributes::named("terrain");
+    if let Some(c) = cell {
+        attributes.other.insert(Text::from(EXR_CELL_ATTRIBUTE), AttributeValue::F32(c));
+    }
+    let layer = Layer::new((h.width, h.height), attributes, Encoding::SMALL_LOSSLESS, channels);
+    Image::from_layer(layer).write().non_parallel().to_buffered(w).map_err(|e| std::io::Error::other(e.to_string()))
+}
+
+/// Reads a one-channel float OpenEXR written by [`write_exr_f32`] (or any with a `Y`
+/// channel, or a single channel) as metres, with its cell size if it records one.
+pub fn parse_exr(path: &Path, bytes: &[u8], max_side: u32) -> Result<(Heightfield, Option<f32>)> {
+    use exr::prelude::*;
+    let bad = |m: String| TerrainError::Invalid { path: path.to_path_buf(), message: m };
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .non_parallel()
+        .from_buffered(std::io::Cursor::new(bytes))
+        .map_err(|e| bad(format!("not a readable OpenEXR: {e}")))?;
+    let layer = &image.layer_data;
+    let (w, h) = (layer.size.width(), layer.size.height());
+    crate::dem_formats::check_size(path, w as u64, h as u64, max_side)?;
+    let list = &layer.channel_data.list;
+    let channel = list
+        .iter()
+        .find(|c| c.name.eq("Y"))
+        .or(if list.len() == 1 { list.first() } else { None })
+        .ok_or_else(|| bad(format!("{} channels and none named Y: give a one-channel EXR", list.len())))?;
+    let data: Vec<f32> = match &channel.sample_data {
+        FlatSamples::F32(v) => v.clone(),
+        FlatSamples::F16(v) => v.iter().map(|x| x.to_f32()).collect(),
+        FlatSamples::U32(v) => v.iter().map(|&x| x as f32).collect(),
+    };
+    let cell = match layer.attributes.other.get(&Text::from(EXR_CELL_ATTRIBUTE)) {
+        Some(AttributeValue::F32(c)) if c.is_finite() && *c > 0.0 => Some(*c),
+        _ => None,
+    };
+    Ok((Grid::from_vec(w, h, data), cell))
+}
+
 fn encode_png16(path: &Path, h: &Heightfield, side: &Png16Sidecar) -> Result<Vec<u8>> {
     let samples: Vec<u16> = h.data.iter().map(|&v| side.quantise(v)).collect();
     let img = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_raw(h.width as u32, h.height as u32, samples)
@@ -114,7 +238,7 @@ fn ext_of(path: &Path) -> String {
 }
 
 /// Output extensions [`write_heightfield`] accepts.
-pub const OUTPUT_EXTENSIONS: [&str; 4] = ["tif", "tiff", "png", "r16"];
+pub const OUTPUT_EXTENSIONS: [&str; 5] = ["tif", "tiff", "png", "r16", "exr"];
 
 /// The `.json` sidecar a 16-bit output (`.png`, `.r16`) is written with; `None` for
 /// formats that carry metres themselves.
@@ -131,11 +255,13 @@ fn write_with_sidecar(path: &Path, h: &Heightfield, side: &Png16Sidecar, cell: O
     let ext = ext_of(path);
     match ext.as_str() {
         "tif" | "tiff" => write_atomic_with(path, |f| write_tiff_f32(f, h, cell)),
+        "exr" => write_atomic_with(path, |f| write_exr_f32(f, h, cell)),
         "png" | "r16" => {
-            let json = serde_json::to_vec_pretty(side).map_err(|e| other(path, e))?;
+            let side = side.clone().with_cell(cell);
+            let json = serde_json::to_vec_pretty(&side).map_err(|e| other(path, e))?;
             write_atomic(&path.with_extension("json"), &json)?;
             if ext == "png" {
-                write_atomic(path, &encode_png16(path, h, side)?)
+                write_atomic(path, &encode_png16(path, h, &side)?)
             } else {
                 write_atomic_with(path, |f| {
                     use std::io::Write;
@@ -177,6 +303,10 @@ pub fn read_heightfield(path: &Path, max_side: u32) -> Result<Heightfield> {
         "tif" | "tiff" => {
             let bytes = crate::io::read_input(path, crate::io::raster_byte_limit(max_side))?;
             Ok(parse_tiff(path, &bytes, max_side)?.heights)
+        }
+        "exr" => {
+            let bytes = crate::io::read_input(path, crate::io::raster_byte_limit(max_side))?;
+            Ok(parse_exr(path, &bytes, max_side)?.0)
         }
         "png" => {
             let side = read_sidecar(path)?;
@@ -280,6 +410,33 @@ impl TilePlan {
     pub fn files(&self) -> Vec<PathBuf> {
         let tiles = (0..self.rows).flat_map(|r| (0..self.columns).map(move |c| (c, r)));
         tiles.flat_map(|(c, r)| heightfield_files(&self.dir.join(self.tile_name(c, r)))).chain([self.index_path()]).collect()
+    }
+
+    /// Where the tiles do not fill the terrain exactly, a sentence saying what the last
+    /// tiles hold (the rest of them repeats the edge) and the size that would fill them;
+    /// `None` when every tile is filled.
+    pub fn padding(&self, width: usize, height: usize) -> Option<String> {
+        let fills = |side: usize| (side - 1).is_multiple_of(self.stride);
+        if fills(width) && fills(height) {
+            return None;
+        }
+        let fit = |side: usize| (side - 1).div_ceil(self.stride) * self.stride + 1;
+        let last = |side: usize| (side - 1) % self.stride + 1;
+        let below = |side: usize| ((side - 1) / self.stride).max(1) * self.stride + 1;
+        Some(format!(
+            "tiles of {n} do not fill a {width} x {height} terrain: the last column holds {} and the last row {} of {n} samples, the rest repeat the edge (the tile index gives each tile's valid size); a {} x {} terrain (--size) fills {} x {} tiles exactly, a {} x {} one {} x {}",
+            if fills(width) { self.n } else { last(width) },
+            if fills(height) { self.n } else { last(height) },
+            fit(width),
+            fit(height),
+            self.columns,
+            self.rows,
+            below(width),
+            below(height),
+            (below(width) - 1) / self.stride,
+            (below(height) - 1) / self.stride,
+            n = self.n
+        ))
     }
 
     /// How many files [`TilePlan::files`] lists, without listing them.
@@ -399,6 +556,49 @@ mod tests {
             }
         }
         assert!(write_heightfield(&d.join("t.jpg"), &h).is_err());
+    }
+
+    #[test]
+    fn exr_round_trips_exactly_with_its_cell_size() {
+        let d = tmp("exr");
+        let h = Grid::from_vec(37, 23, (0..37 * 23).map(|i| (i as f32 * 0.731).sin() * 2500.0 + 1.0e-3 * i as f32).collect());
+        let p = d.join("t.exr");
+        write_heightfield_with_cell(&p, &h, Some(30.0)).unwrap();
+        let bytes = std::fs::read(&p).unwrap();
+        let (back, cell) = parse_exr(&p, &bytes, 4096).unwrap();
+        assert_eq!((back.width, back.height, cell), (37, 23, Some(30.0)));
+        assert!(back.data.iter().zip(&h.data).all(|(a, b)| a.to_bits() == b.to_bits()), "bit for bit");
+        assert_eq!(read_heightfield(&p, 4096).unwrap().data, h.data);
+        std::fs::write(d.join("bad.exr"), b"v/1\x01 not an exr").unwrap();
+        assert!(read_heightfield(&d.join("bad.exr"), 4096).unwrap_err().to_string().contains("bad.exr"));
+    }
+
+    #[test]
+    fn sixteen_bit_sidecars_give_the_engine_settings_that_reproduce_the_metres() {
+        let d = tmp("side");
+        let h = Grid::from_vec(65, 33, (0..65 * 33).map(|i| 812.5 + (i % 97) as f32 * 31.25).collect());
+        let p = d.join("t.r16");
+        write_heightfield_with_cell(&p, &h, Some(12.5)).unwrap();
+        let side: Png16Sidecar = serde_json::from_slice(&std::fs::read(d.join("t.json")).unwrap()).unwrap();
+        assert_eq!(side.cell_size_m, Some(12.5));
+        let (ue, unity) = (side.unreal.unwrap(), side.unity.unwrap());
+        assert_eq!((ue.xy_scale, unity.width, unity.length), (1250.0, 800.0, 400.0));
+        for s in [0u16, 1, 1000, 32767, 32768, 65534, 65535] {
+            let want = side.min_elevation + s as f64 * side.scale;
+            let unreal = (s as f64 - 32768.0) * ue.z_scale / 12800.0 + ue.location_z / 100.0;
+            let unity_m = s as f64 / 65535.0 * unity.terrain_height + unity.position_y;
+            assert!((unreal - want).abs() < 1e-9 && (unity_m - want).abs() < 1e-9, "{s}: {want} {unreal} {unity_m}");
+        }
+        assert!((side.metres(65535) - 812.5 - 96.0 * 31.25).abs() < 1e-3);
+    }
+
+    #[test]
+    fn tiles_that_do_not_fill_the_terrain_are_explained_with_the_sizes_that_do() {
+        let p = Path::new("t.tif");
+        assert_eq!(TilePlan::new(p, 1009, 2017, 505).unwrap().padding(1009, 2017), None);
+        let why = TilePlan::new(p, 1000, 1009, 505).unwrap().padding(1000, 1009).unwrap();
+        assert!(why.contains("last column holds 496 and the last row 505 of 505"), "{why}");
+        assert!(why.contains("a 1009 x 1009 terrain (--size) fills 2 x 2 tiles exactly, a 505 x 1009 one 1 x 2"), "{why}");
     }
 
     #[test]

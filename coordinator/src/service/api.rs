@@ -190,7 +190,7 @@ fn job_builder(
         .cancel(cancel)
         .outputs(OutputFiles {
             terrain: dir.join("terrain.tif"),
-            also: vec![dir.join("terrain16.png"), dir.join("terrain.r16")],
+            also: vec![dir.join("terrain.exr"), dir.join("terrain16.png"), dir.join("terrain.r16")],
             tiles: req.tiles,
             preview: Some(dir.join("preview.png")),
             report: Some(dir.join("report.json")),
@@ -303,6 +303,7 @@ fn content_type(name: &str) -> &'static str {
     match name.rsplit('.').next().unwrap_or("") {
         "png" => "image/png",
         "tif" | "tiff" => "image/tiff",
+        "exr" => "image/x-exr",
         "json" => "application/json",
         _ => "application/octet-stream",
     }
