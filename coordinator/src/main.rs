@@ -56,7 +56,7 @@ fn main() -> std::process::ExitCode {
 
 fn run(cmd: Cmd, interactive: bool, human: bool) -> Result<()> {
     match cmd {
-        Cmd::Synth(a) => synth(a, interactive, human),
+        Cmd::Synth(a) => synth(*a, interactive, human),
         Cmd::FetchDem(a) => fetch(a),
         Cmd::Evaluate(a) => evaluate(a),
         Cmd::Worker(a) => worker(a),
@@ -242,6 +242,9 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
     }
     if let Some(c) = a.cell_size {
         builder = builder.cell_size(c);
+    }
+    if let Some((w, h)) = a.size {
+        builder = builder.size(w, h);
     }
     if interactive {
         builder = builder.progress(progress_bars());

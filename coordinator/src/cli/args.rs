@@ -28,7 +28,7 @@ pub enum LogFormat {
 #[derive(Subcommand)]
 pub enum Cmd {
     /// Synthesise a terrain from a sketch and a library of exemplar DEMs.
-    Synth(SynthArgs),
+    Synth(Box<SynthArgs>),
     /// Download public elevation tiles (Terrarium) for an area and write them as an exemplar library.
     FetchDem(FetchArgs),
     /// Measure how real a terrain is against the exemplars it came from (adherence,
@@ -164,8 +164,10 @@ pub struct SynthArgs {
     /// large rivers cut down by about half their drop per step, gullies barely).
     #[arg(long, value_name = "STRENGTH")]
     pub erode: Option<f32>,
-    /// Output heightfield: .tif (32-bit float metres), .png (16-bit) or .r16 (raw 16-bit
-    /// little-endian); 16-bit outputs get a .json sidecar mapping samples to metres.
+    /// Output heightfield: .tif (32-bit float metres), .exr (OpenEXR, 32-bit float
+    /// metres), .png (16-bit) or .r16 (raw 16-bit little-endian); 16-bit outputs get a
+    /// .json sidecar mapping samples to metres, with the cell size and the Unreal and
+    /// Unity import settings that reproduce them.
     #[arg(long)]
     pub out: PathBuf,
     /// Patch side in cells.
@@ -184,6 +186,10 @@ pub struct SynthArgs {
     /// (`{stem}_x{col}_y{row}.{ext}` and `{stem}_tiles.json`).
     #[arg(long)]
     pub tiles: Option<usize>,
+    /// Output size WIDTHxHEIGHT in cells, whatever the sketch's size (the sketch is
+    /// resampled; strokes scale with it): engine sizes such as 1009x1009 or 4097x4097.
+    #[arg(long, value_parser = parse_size_arg)]
+    pub size: Option<(usize, usize)>,
     /// Feature cache folder (default: $RIDGELINE_CACHE, $XDG_CACHE_HOME/ridgeline or ~/.cache/ridgeline).
     #[arg(long)]
     pub cache_dir: Option<PathBuf>,
@@ -296,6 +302,13 @@ pub struct EvaluateArgs {
 }
 
 /// `MIN:MAX` in metres, the lower first.
+/// `WIDTHxHEIGHT` in cells (`x` or `X`).
+fn parse_size_arg(s: &str) -> Result<(usize, usize), String> {
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("'{s}': give WIDTHxHEIGHT, such as 1009x1009"))?;
+    let side = |v: &str| v.trim().parse::<u32>().map_err(|_| format!("'{s}': '{v}' is not a number of cells"));
+    Ok((side(w)? as usize, side(h)? as usize))
+}
+
 fn parse_range(s: &str) -> Result<[f32; 2], String> {
     let (a, b) = s.split_once(':').ok_or_else(|| format!("'{s}': give MIN:MAX in metres, such as 0:3500"))?;
     let num = |v: &str| v.trim().parse::<f32>().map_err(|_| format!("'{v}' in '{s}' is not a number of metres"));

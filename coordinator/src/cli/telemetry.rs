@@ -22,23 +22,36 @@ pub fn progress_bars() -> Arc<dyn JobProgress> {
 
 struct Bars(Mutex<Option<(Stage, indicatif::ProgressBar)>>);
 
+/// Stages that count their own work: a bar. The others get a spinner with the time
+/// spent while they run (loading exemplars, the evaluation), cleared if they were quick.
+fn counts_its_work(stage: Stage) -> bool {
+    matches!(stage, Stage::FeaturePlacement | Stage::HoleFilling | Stage::Erosion)
+}
+
 impl JobProgress for Bars {
     fn progress(&self, stage: Stage, done: u64, total: u64) {
-        // the short stages are over before a bar would be seen
-        if !matches!(stage, Stage::FeaturePlacement | Stage::HoleFilling) {
-            return;
-        }
         let Ok(mut cur) = self.0.lock() else { return };
         if cur.as_ref().map(|c| c.0) != Some(stage) {
             if let Some((_, pb)) = cur.take().filter(|(_, pb)| !pb.is_finished()) {
-                pb.finish();
+                pb.finish_and_clear();
             }
-            let pb = indicatif::ProgressBar::new(total.max(1));
-            pb.set_style(
-                indicatif::ProgressStyle::with_template("{prefix:>18} [{bar:40}] {pos}/{len} ({eta})")
-                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
-                    .progress_chars("=> "),
-            );
+            let pb = if counts_its_work(stage) {
+                let pb = indicatif::ProgressBar::new(total.max(1));
+                pb.set_style(
+                    indicatif::ProgressStyle::with_template("{prefix:>18} [{bar:40}] {pos}/{len} ({eta})")
+                        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+                        .progress_chars("=> "),
+                );
+                pb
+            } else {
+                let pb = indicatif::ProgressBar::new_spinner();
+                pb.set_style(
+                    indicatif::ProgressStyle::with_template("{prefix:>18} {spinner} {elapsed}")
+                        .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+                );
+                pb.enable_steady_tick(std::time::Duration::from_millis(120));
+                pb
+            };
             pb.set_prefix(stage.label());
             *cur = Some((stage, pb));
         }
@@ -48,8 +61,19 @@ impl JobProgress for Bars {
                 // itself): draw the finished bar once
                 return;
             }
-            pb.set_length(total.max(1));
-            pb.set_position(done);
+            if !counts_its_work(stage) {
+                if done >= total {
+                    match pb.elapsed() < std::time::Duration::from_millis(500) {
+                        true => pb.finish_and_clear(),
+                        false => pb.finish(),
+                    }
+                }
+                return;
+            }
+            // never backwards: a stage whose total or count moves between reports
+            // keeps the furthest point it reached
+            pb.set_length(total.max(1).max(pb.length().unwrap_or(0)));
+            pb.set_position(done.max(pb.position()));
             if done >= total {
                 pb.finish();
             }

@@ -173,8 +173,13 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
 
     let filling = run.run(Stage::HoleFilling, |cx| {
         let empty = canvas.empty as u64;
+        // cells filled so far, never less than before (a wave's seams may open cells an
+        // earlier wave had filled, so the count left can rise between waves)
+        let filled = std::sync::atomic::AtomicU64::new(0);
         let on_fill = |left: u64, c: &Canvas| {
-            cx.progress(empty - left, empty);
+            let now = empty.saturating_sub(left);
+            let done = filled.fetch_max(now, std::sync::atomic::Ordering::Relaxed).max(now);
+            cx.progress(done, empty);
             cx.placements(c);
         };
         let fill = FillSettings { level: OUTPUT_LEVEL, seed: set.seed, base };

@@ -84,6 +84,9 @@ impl OutputFiles {
         }
         if let Some(n) = self.tiles {
             let plan = TilePlan::new(&self.terrain, width, height, n)?;
+            if let Some(why) = plan.padding(width, height) {
+                tracing::warn!(tiles = n, "{why}");
+            }
             let files = plan.file_count();
             if files > MAX_TILE_FILES {
                 return Err(invalid(
