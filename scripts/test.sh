@@ -64,25 +64,30 @@ fi
 # the optional OpenTelemetry export (a cargo feature, off by default): lint and test it
 cargo clippy -p ridgeline --release --features otlp --all-targets -- -D warnings
 cargo test -p ridgeline --release --features otlp --test otlp
-# what other tools read of the outputs: an OpenEXR terrain read back by the OpenEXR
-# project's Python reader, bit for bit equal to the same job's float TIFF (tifffile),
-# in a virtual environment of PyPI packages under target/
+# what other tools read of the outputs, in a virtual environment of PyPI packages under
+# target/: an OpenEXR terrain read back by the OpenEXR project's Python reader, bit for
+# bit equal to the same job's float TIFF (tifffile); a georeferenced terrain and its
+# tiles placed by rasterio (GDAL) where they lie
 if ! python3 -c "import venv, ensurepip" >/dev/null 2>&1 && [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
   (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq python3-venv >/dev/null) ||
     echo "warning: could not install python3-venv" >&2
 fi
 PY=target/pyenv/bin/python
-if [ ! -x "$PY" ] || ! "$PY" -c "import OpenEXR, numpy, tifffile" >/dev/null 2>&1; then
-  python3 -m venv target/pyenv && "$PY" -m pip install -q --disable-pip-version-check OpenEXR numpy tifffile ||
-    { [ "${CI:-}" = true ] && { echo "error: the Python readers (OpenEXR, numpy, tifffile from PyPI) could not be installed" >&2; exit 1; }; }
+READERS="OpenEXR numpy tifffile rasterio"
+if [ ! -x "$PY" ] || ! "$PY" -c "import OpenEXR, numpy, tifffile, rasterio" >/dev/null 2>&1; then
+  python3 -m venv target/pyenv && "$PY" -m pip install -q --disable-pip-version-check $READERS ||
+    { [ "${CI:-}" = true ] && { echo "error: the Python readers ($READERS from PyPI) could not be installed" >&2; exit 1; }; }
 fi
-if "$PY" -c "import OpenEXR, numpy, tifffile" >/dev/null 2>&1 && [ -d "$DATA/sketches" ]; then
+if "$PY" -c "import OpenEXR, numpy, tifffile, rasterio" >/dev/null 2>&1 && [ -d "$DATA/sketches" ]; then
   out=target/readback && mkdir -p "$out"
   for ext in exr tif; do
     target/release/ridgeline synth --sketch "$DATA/sketches/small-range-512.png" --exemplars "$DATA/dems" \
       --out "$out/terrain.$ext" --no-cache --threads 2 --gpu off >/dev/null 2>&1
   done
   "$PY" tests/python/exr_readback.py "$out/terrain.exr" "$out/terrain.tif"
+  target/release/ridgeline synth --sketch "$DATA/sketches/small-range-512.png" --exemplars "$DATA/dems" \
+    --out "$out/geo.tif" --crs EPSG:32633 --origin 500000,4649776 --tiles 257 --no-cache --threads 2 --gpu off >/dev/null 2>&1
+  "$PY" tests/python/geotiff_readback.py "$out/geo_tiles.json" 32633 500000 4649776
 else
-  echo "SKIPPED: the Python readback (needs $DATA and OpenEXR, numpy, tifffile)" >&2
+  echo "SKIPPED: the Python readback (needs $DATA and $READERS)" >&2
 fi

@@ -334,6 +334,7 @@ fn form_run(dir: &std::path::Path, range: Option<[f32; 2]>) -> Option<ridgeline:
             preview: None,
             report: Some(dir.join("report.json")),
             debug_dir: None,
+            georef: None,
         })
         .build()
         .and_then(|s| s.run())

@@ -209,6 +209,13 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
         SketchSource::File(a.sketch.clone())
     };
     let range = a.elevation_range.or(a.sea_level.zip(a.relief).map(|(s, r)| [s, s + r]));
+    let georef = match (&a.crs, &a.origin) {
+        (Some(crs), Some(origin)) => {
+            Some(ridgeline_terrain::outputs::Georef::parse(crs, origin).map_err(|e| anyhow::anyhow!("{e}"))?)
+        }
+        (None, None) => None,
+        _ => bail!("--crs and --origin go together: give both, or neither"),
+    };
     let mut builder = Session::builder()
         .sketch(sketch)
         .elevation_range(range)
@@ -236,6 +243,7 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
             preview: a.preview.clone(),
             report: a.report.clone(),
             debug_dir: a.debug_dir.clone(),
+            georef,
         });
     for (name, p) in a.workers_file.iter().map(|p| ("the workers file", p)).chain(a.tls_ca.iter().map(|p| ("the TLS CA", p))) {
         builder = builder.input_file(name, p);

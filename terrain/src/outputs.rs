@@ -1,5 +1,7 @@
 //! Terrain outputs by extension, each written atomically:
-//! - `.tif`: single-channel 32-bit float metres, with the GeoTIFF pixel-scale tag;
+//! - `.tif`: single-channel 32-bit float metres, with the GeoTIFF pixel-scale tag, and
+//!   where a [`Georef`] is given a GeoTIFF: its model tie point and GeoKeys (a
+//!   projected CRS by EPSG code, pixel-is-area), so GDAL and rasterio place it;
 //! - `.png`: 16-bit, with a `.json` sidecar (`min_elevation`, `scale`, `unit`) that
 //!   converts samples back to metres;
 //! - `.r16`: raw little-endian 16-bit samples (as game engines import heightmaps),
@@ -114,6 +116,46 @@ impl Png16Sidecar {
     }
 }
 
+/// Where a terrain lies: a projected coordinate system (EPSG code, units metres) and
+/// the CRS coordinates of its top-left cell's top-left corner.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Georef {
+    pub epsg: u16,
+    pub origin: [f64; 2],
+}
+
+impl Georef {
+    /// From `EPSG:CODE` and `X,Y`; refused, saying why, for a geographic CRS (the
+    /// terrain's cells are metres), a code GeoTIFF cannot carry, or coordinates that
+    /// are not two finite numbers.
+    pub fn parse(crs: &str, origin: &str) -> std::result::Result<Georef, String> {
+        let code = crs.trim().strip_prefix("EPSG:").or_else(|| crs.trim().strip_prefix("epsg:")).unwrap_or(crs.trim());
+        let epsg: u16 = code.parse().map_err(|_| format!("CRS '{crs}': give EPSG:CODE, such as EPSG:32633 (UTM zone 33N)"))?;
+        if (4000..5000).contains(&epsg) {
+            return Err(format!(
+                "CRS EPSG:{epsg} is geographic (degrees), and the terrain's cells are metres: give a projected CRS in metres, such as a UTM zone (EPSG:326xx or 327xx)"
+            ));
+        }
+        if !(1024..=32766).contains(&epsg) {
+            return Err(format!("CRS EPSG:{epsg}: GeoTIFF carries projected EPSG codes 1024 to 32766"));
+        }
+        let xy: Vec<f64> = origin
+            .split(',')
+            .map(|v| v.trim().parse::<f64>())
+            .collect::<std::result::Result<_, _>>()
+            .map_err(|_| format!("origin '{origin}': give X,Y, the CRS coordinates of the top-left corner"))?;
+        match xy[..] {
+            [x, y] if x.is_finite() && y.is_finite() => Ok(Georef { epsg, origin: [x, y] }),
+            _ => Err(format!("origin '{origin}': give two finite numbers X,Y")),
+        }
+    }
+
+    /// The same place, `dx` cells right and `dy` cells down (a tile's origin).
+    pub fn shifted(&self, dx: usize, dy: usize, cell: f32) -> Georef {
+        Georef { epsg: self.epsg, origin: [self.origin[0] + dx as f64 * cell as f64, self.origin[1] - dy as f64 * cell as f64] }
+    }
+}
+
 fn other(path: &Path, e: impl std::fmt::Display) -> TerrainError {
     TerrainError::Other(format!("{}: {e}", path.display()))
 }
@@ -129,7 +171,17 @@ pub fn encode_tiff_f32_with_cell(h: &Heightfield, cell: Option<f32>) -> Result<V
 /// Streams a heightfield as a single-channel 32-bit float TIFF into `w` (strip by
 /// strip: no second copy of the terrain in memory).
 pub fn write_tiff_f32<W: std::io::Write + std::io::Seek>(w: &mut W, h: &Heightfield, cell: Option<f32>) -> std::io::Result<()> {
-    write_tiff_f32_as(w, h, cell, needs_bigtiff(h))
+    write_tiff_f32_as(w, h, cell, None, needs_bigtiff(h))
+}
+
+/// [`write_tiff_f32`] as a GeoTIFF placed by `geo` (with `cell` its pixel size).
+pub fn write_geotiff_f32<W: std::io::Write + std::io::Seek>(
+    w: &mut W,
+    h: &Heightfield,
+    cell: Option<f32>,
+    geo: Option<&Georef>,
+) -> std::io::Result<()> {
+    write_tiff_f32_as(w, h, cell, geo, needs_bigtiff(h))
 }
 
 /// Pixel bytes above which a float TIFF is written as BigTIFF: classic TIFF holds
@@ -145,6 +197,7 @@ fn write_tiff_f32_as<W: std::io::Write + std::io::Seek>(
     w: &mut W,
     h: &Heightfield,
     cell: Option<f32>,
+    geo: Option<&Georef>,
     big: bool,
 ) -> std::io::Result<()> {
     use tiff::encoder::{colortype::Gray32Float, TiffEncoder, TiffKind};
@@ -152,18 +205,27 @@ fn write_tiff_f32_as<W: std::io::Write + std::io::Seek>(
         enc: &mut TiffEncoder<W, K>,
         h: &Heightfield,
         cell: Option<f32>,
+        geo: Option<&Georef>,
     ) -> tiff::TiffResult<()> {
         let mut img = enc.new_image::<Gray32Float>(h.width as u32, h.height as u32)?;
         if let Some(c) = cell {
             let scale = [c as f64, c as f64, 0.0];
             img.encoder().write_tag(tiff::tags::Tag::ModelPixelScaleTag, &scale[..])?;
         }
+        if let Some(g) = geo {
+            // raster (0, 0) at the CRS origin; GeoKeys (GeoTIFF 1.0, sorted by key):
+            // model type projected, raster pixel-is-area, the projected CRS, metres
+            let tie = [0.0, 0.0, 0.0, g.origin[0], g.origin[1], 0.0];
+            img.encoder().write_tag(tiff::tags::Tag::ModelTiepointTag, &tie[..])?;
+            let keys: [u16; 20] = [1, 1, 0, 4, 1024, 0, 1, 1, 1025, 0, 1, 1, 3072, 0, 1, g.epsg, 3076, 0, 1, 9001];
+            img.encoder().write_tag(tiff::tags::Tag::GeoKeyDirectoryTag, &keys[..])?;
+        }
         img.write_data(&h.data)
     }
     let result = if big {
-        TiffEncoder::new_big(w).and_then(|mut enc| write(&mut enc, h, cell))
+        TiffEncoder::new_big(w).and_then(|mut enc| write(&mut enc, h, cell, geo))
     } else {
-        TiffEncoder::new(w).and_then(|mut enc| write(&mut enc, h, cell))
+        TiffEncoder::new(w).and_then(|mut enc| write(&mut enc, h, cell, geo))
     };
     result.map_err(|e| std::io::Error::other(e.to_string()))
 }
@@ -251,10 +313,10 @@ pub fn heightfield_files(path: &Path) -> Vec<PathBuf> {
     std::iter::once(path.to_path_buf()).chain(sidecar_path(path)).collect()
 }
 
-fn write_with_sidecar(path: &Path, h: &Heightfield, side: &Png16Sidecar, cell: Option<f32>) -> Result<()> {
+fn write_with_sidecar(path: &Path, h: &Heightfield, side: &Png16Sidecar, cell: Option<f32>, geo: Option<&Georef>) -> Result<()> {
     let ext = ext_of(path);
     match ext.as_str() {
-        "tif" | "tiff" => write_atomic_with(path, |f| write_tiff_f32(f, h, cell)),
+        "tif" | "tiff" => write_atomic_with(path, |f| write_geotiff_f32(f, h, cell, geo)),
         "exr" => write_atomic_with(path, |f| write_exr_f32(f, h, cell)),
         "png" | "r16" => {
             let side = side.clone().with_cell(cell);
@@ -287,8 +349,13 @@ pub fn write_heightfield(path: &Path, h: &Heightfield) -> Result<()> {
 
 /// [`write_heightfield`], recording the cell size where the format can.
 pub fn write_heightfield_with_cell(path: &Path, h: &Heightfield, cell: Option<f32>) -> Result<()> {
+    write_heightfield_geo(path, h, cell, None)
+}
+
+/// [`write_heightfield_with_cell`], a TIFF placed by `geo` as a GeoTIFF.
+pub fn write_heightfield_geo(path: &Path, h: &Heightfield, cell: Option<f32>, geo: Option<&Georef>) -> Result<()> {
     let (lo, hi) = h.finite_range().unwrap_or((0.0, 0.0));
-    write_with_sidecar(path, h, &Png16Sidecar::for_range(lo, hi, h.width, h.height), cell)
+    write_with_sidecar(path, h, &Png16Sidecar::for_range(lo, hi, h.width, h.height), cell, geo)
 }
 
 fn read_sidecar(path: &Path) -> Result<Png16Sidecar> {
@@ -448,6 +515,11 @@ impl TilePlan {
 
 /// Writes `h` as `n x n` tiles beside `out` in `out`'s format; returns the index path.
 pub fn write_tiles(out: &Path, h: &Heightfield, n: usize, cell: Option<f32>) -> Result<PathBuf> {
+    write_tiles_geo(out, h, n, cell, None)
+}
+
+/// [`write_tiles`], each TIFF tile a GeoTIFF placed where it lies in `geo`.
+pub fn write_tiles_geo(out: &Path, h: &Heightfield, n: usize, cell: Option<f32>, geo: Option<&Georef>) -> Result<PathBuf> {
     let plan = TilePlan::new(out, h.width, h.height, n)?;
     let (lo, hi) = h.finite_range().unwrap_or((0.0, 0.0));
     let side = Png16Sidecar::for_range(lo, hi, n, n);
@@ -471,7 +543,8 @@ pub fn write_tiles(out: &Path, h: &Heightfield, n: usize, cell: Option<f32>) -> 
                 }
             }
             let file = plan.tile_name(col, row);
-            write_with_sidecar(&plan.dir.join(&file), &t, &side, cell)?;
+            let tile_geo = geo.zip(cell).map(|(g, c)| g.shifted(x0, y0, c));
+            write_with_sidecar(&plan.dir.join(&file), &t, &side, cell, tile_geo.as_ref())?;
             index.tiles.push(TileEntry {
                 file,
                 col,
@@ -529,7 +602,7 @@ mod tests {
         // the format very large terrains are written in, checked at a small size
         let h = sample(29, 17);
         let mut buf = std::io::Cursor::new(Vec::new());
-        write_tiff_f32_as(&mut buf, &h, Some(30.0), true).unwrap();
+        write_tiff_f32_as(&mut buf, &h, Some(30.0), None, true).unwrap();
         let bytes = buf.into_inner();
         assert_eq!(&bytes[..4], b"II+\0", "BigTIFF header");
         let back = parse_tiff(Path::new("big.tif"), &bytes, 1000).unwrap();
@@ -590,6 +663,26 @@ mod tests {
             assert!((unreal - want).abs() < 1e-9 && (unity_m - want).abs() < 1e-9, "{s}: {want} {unreal} {unity_m}");
         }
         assert!((side.metres(65535) - 812.5 - 96.0 * 31.25).abs() < 1e-3);
+    }
+
+    #[test]
+    fn a_crs_is_projected_by_its_epsg_code_and_an_origin_two_numbers() {
+        assert_eq!(Georef::parse("EPSG:32633", "500000, -12.5"), Ok(Georef { epsg: 32633, origin: [500000.0, -12.5] }));
+        assert!(Georef::parse("EPSG:4326", "0,0").unwrap_err().contains("geographic"));
+        assert!(Georef::parse("EPSG:99999", "0,0").unwrap_err().contains("EPSG:CODE"));
+        assert!(Georef::parse("EPSG:500", "0,0").unwrap_err().contains("1024 to 32766"));
+        assert!(Georef::parse("EPSG:32633", "1,2,3").unwrap_err().contains("two finite"));
+        assert!(Georef::parse("EPSG:32633", "1,nan").unwrap_err().contains("two finite"));
+        let g = Georef::parse("epsg:2056", "2600000,1200000").unwrap().shifted(256, 512, 2.0);
+        assert_eq!(g.origin, [2600512.0, 1198976.0]);
+        // the keys a GeoTIFF reader needs are in the file
+        let d = tmp("geo");
+        let h = Grid::from_vec(8, 8, vec![1.0f32; 64]);
+        write_heightfield_geo(&d.join("g.tif"), &h, Some(2.0), Some(&g)).unwrap();
+        let mut dec = tiff::decoder::Decoder::new(std::fs::File::open(d.join("g.tif")).unwrap()).unwrap();
+        assert_eq!(dec.get_tag_f64_vec(tiff::tags::Tag::ModelTiepointTag).unwrap(), [0.0, 0.0, 0.0, 2600512.0, 1198976.0, 0.0]);
+        let keys = dec.get_tag_u32_vec(tiff::tags::Tag::GeoKeyDirectoryTag).unwrap();
+        assert_eq!(&keys[12..16], &[3072, 0, 1, 2056]);
     }
 
     #[test]

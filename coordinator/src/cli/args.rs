@@ -190,6 +190,13 @@ pub struct SynthArgs {
     /// resampled; strokes scale with it): engine sizes such as 1009x1009 or 4097x4097.
     #[arg(long, value_parser = parse_size_arg)]
     pub size: Option<(usize, usize)>,
+    /// Georeference the TIFF outputs (terrain and tiles) as GeoTIFFs in this projected
+    /// CRS, in metres: EPSG:CODE, such as EPSG:32633 (with --origin).
+    #[arg(long, requires = "origin")]
+    pub crs: Option<String>,
+    /// The CRS coordinates X,Y of the terrain's top-left corner (with --crs).
+    #[arg(long, requires = "crs", allow_hyphen_values = true)]
+    pub origin: Option<String>,
     /// Feature cache folder (default: $RIDGELINE_CACHE, $XDG_CACHE_HOME/ridgeline or ~/.cache/ridgeline).
     #[arg(long)]
     pub cache_dir: Option<PathBuf>,

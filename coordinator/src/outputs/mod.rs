@@ -29,6 +29,9 @@ pub struct OutputFiles {
     pub report: Option<PathBuf>,
     /// A folder for the debug views.
     pub debug_dir: Option<PathBuf>,
+    /// Where the terrain lies: its TIFFs (the terrain, its copies, its tiles) are
+    /// written as GeoTIFFs in this CRS.
+    pub georef: Option<ridgeline_terrain::outputs::Georef>,
 }
 
 /// Most files tiles may make (tiles and their sidecars).
@@ -165,13 +168,17 @@ impl OutputFiles {
         };
         cx.progress(0, steps);
         let transaction = ridgeline_terrain::staging::Transaction::begin();
-        ridgeline_terrain::outputs::write_heightfield_with_cell(&self.terrain, out.terrain(), cell)?;
+        let geo = self.georef.as_ref();
+        if geo.is_some() && cell.is_none() {
+            return Err(invalid(&self.terrain, "georeferencing needs the cell size, which no exemplar gives: give --cell-size"));
+        }
+        ridgeline_terrain::outputs::write_heightfield_geo(&self.terrain, out.terrain(), cell, geo)?;
         for a in &self.also {
-            ridgeline_terrain::outputs::write_heightfield_with_cell(a, out.terrain(), cell)?;
+            ridgeline_terrain::outputs::write_heightfield_geo(a, out.terrain(), cell, geo)?;
         }
         advance();
         if let Some(n) = self.tiles {
-            let idx = ridgeline_terrain::outputs::write_tiles(&self.terrain, out.terrain(), n, cell)?;
+            let idx = ridgeline_terrain::outputs::write_tiles_geo(&self.terrain, out.terrain(), n, cell, geo)?;
             tracing::info!(index = %idx.display(), "tiles written");
             advance();
         }

@@ -195,6 +195,7 @@ fn job_builder(
             preview: Some(dir.join("preview.png")),
             report: Some(dir.join("report.json")),
             debug_dir: req.debug.then(|| dir.to_path_buf()),
+            georef: None,
         })
         .keep_features_only(req.debug)
         .elevation_range(req.elevation_range)
