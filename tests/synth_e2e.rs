@@ -335,6 +335,7 @@ fn form_run(dir: &std::path::Path, range: Option<[f32; 2]>) -> Option<ridgeline:
             report: Some(dir.join("report.json")),
             debug_dir: None,
             georef: None,
+            masks: None,
         })
         .build()
         .and_then(|s| s.run())

@@ -216,6 +216,21 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
         (None, None) => None,
         _ => bail!("--crs and --origin go together: give both, or neither"),
     };
+    let masks = match &a.masks {
+        Some(dir) => {
+            let mut m = ridgeline::outputs::masks::MaskSettings::new(dir.clone());
+            m.sixteen_bit = a.mask_depth == "16";
+            if let Some(s) = &a.splat {
+                m.splat = s
+                    .clone()
+                    .try_into()
+                    .map_err(|v: Vec<String>| anyhow::anyhow!("--splat: give four masks, not {}", v.len()))?;
+            }
+            m.check().map_err(|e| anyhow::anyhow!("--splat: {e}"))?;
+            Some(m)
+        }
+        None => None,
+    };
     let mut builder = Session::builder()
         .sketch(sketch)
         .elevation_range(range)
@@ -244,6 +259,7 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
             report: a.report.clone(),
             debug_dir: a.debug_dir.clone(),
             georef,
+            masks,
         });
     for (name, p) in a.workers_file.iter().map(|p| ("the workers file", p)).chain(a.tls_ca.iter().map(|p| ("the TLS CA", p))) {
         builder = builder.input_file(name, p);

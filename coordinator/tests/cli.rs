@@ -634,3 +634,56 @@ fn hostile_files_and_numbers_are_refused_before_they_size_anything() {
     let (ok, err) = stderr_of(bin().args(["serve", "--listen", "0.0.0.0:0", "--exemplars"]).arg(&lib).env("RIDGELINE_TOKEN", ""));
     assert!(!ok && err.contains("token is empty"), "{err}");
 }
+
+#[test]
+fn texture_masks_are_written_beside_the_terrain_at_its_size() {
+    let Some(data) = shared() else { return };
+    let d = tmp("masks");
+    let sketch = small_sketch(&d);
+    let lib = small_library(&d, &data);
+    let run = |extra: &[&str]| {
+        stderr_of(
+            bin()
+                .args(["synth", "--patch-size", "32", "--no-cache", "--gpu", "off", "--sketch"])
+                .arg(&sketch)
+                .arg("--exemplars")
+                .arg(&lib)
+                .arg("--out")
+                .arg(d.join("t.tif"))
+                .arg("--masks")
+                .arg(d.join("masks"))
+                .args(extra),
+        )
+    };
+    let (ok, err) = run(&["--splat", "slope,flow"]);
+    assert!(!ok && err.contains("four masks"), "{err}");
+    let (ok, err) = run(&["--splat", "slope,flow,snow,landforms"]);
+    assert!(!ok && err.contains("'snow'") && !d.join("t.tif").exists(), "{err}");
+    let (ok, err) = run(&["--mask-depth", "16", "--splat", "flow,slope,source_rockies,landforms"]);
+    assert!(ok, "{err}");
+    let index: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("masks/masks.json")).unwrap()).unwrap();
+    assert_eq!((index["width"].as_u64(), index["height"].as_u64(), index["bits"].as_u64()), (Some(192), Some(160), Some(16)));
+    let mut sources = Vec::new();
+    for name in index["files"].as_object().unwrap().keys() {
+        let img = image::open(d.join("masks").join(name)).unwrap();
+        assert_eq!((img.width(), img.height()), (192, 160), "{name}");
+        if name == "splat.png" {
+            assert!(matches!(img, image::DynamicImage::ImageRgba16(_)), "{name}: {:?}", img.color());
+        } else {
+            assert!(matches!(img, image::DynamicImage::ImageLuma16(_)), "{name}: {:?}", img.color());
+        }
+        if name.starts_with("source_") {
+            sources.push(img.into_luma16());
+        }
+    }
+    assert!(!sources.is_empty());
+    // every cell has exactly one source
+    for i in 0..(192 * 160) {
+        let total: u32 = sources.iter().map(|s| s.as_raw()[i] as u32).sum();
+        assert_eq!(total, 65535, "cell {i}");
+    }
+    // the splat map's red channel is the flow mask
+    let splat = image::open(d.join("masks/splat.png")).unwrap().into_rgba16();
+    let flow = image::open(d.join("masks/flow.png")).unwrap().into_luma16();
+    assert!(splat.pixels().zip(flow.pixels()).all(|(s, f)| s.0[0] == f.0[0]));
+}

@@ -194,6 +194,18 @@ pub struct SynthArgs {
     /// CRS, in metres: EPSG:CODE, such as EPSG:32633 (with --origin).
     #[arg(long, requires = "origin")]
     pub crs: Option<String>,
+    /// Also write texture masks into this folder: slope, curvature, flow
+    /// accumulation, landform classes, each exemplar's share, and an RGBA splat map
+    /// (masks.json says what each holds).
+    #[arg(long)]
+    pub masks: Option<PathBuf>,
+    /// Bits of the masks' PNGs: 8 or 16.
+    #[arg(long, default_value = "8", value_parser = ["8", "16"], requires = "masks")]
+    pub mask_depth: String,
+    /// The splat map's R,G,B,A masks (default slope,curvature,flow,landforms; also
+    /// source_NAME).
+    #[arg(long, value_delimiter = ',', requires = "masks")]
+    pub splat: Option<Vec<String>>,
     /// The CRS coordinates X,Y of the terrain's top-left corner (with --crs).
     #[arg(long, requires = "crs", allow_hyphen_values = true)]
     pub origin: Option<String>,

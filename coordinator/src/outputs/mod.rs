@@ -5,6 +5,7 @@
 //! so an error or a signal on the way leaves every existing file as it was.
 
 pub mod debug;
+pub mod masks;
 
 use crate::job::pipeline::SynthOutput;
 use crate::job::report::SynthReport;
@@ -32,6 +33,8 @@ pub struct OutputFiles {
     /// Where the terrain lies: its TIFFs (the terrain, its copies, its tiles) are
     /// written as GeoTIFFs in this CRS.
     pub georef: Option<ridgeline_terrain::outputs::Georef>,
+    /// Texture masks (slope, curvature, flow, landforms, sources, a splat map).
+    pub masks: Option<masks::MaskSettings>,
 }
 
 /// Most files tiles may make (tiles and their sidecars).
@@ -159,8 +162,10 @@ impl OutputFiles {
         cx: &StageContext,
     ) -> Result<Staged> {
         let cell = report.cell_size_m;
-        let steps =
-            1 + [self.tiles.is_some(), self.preview.is_some(), self.debug_dir.is_some()].iter().filter(|b| **b).count() as u64;
+        let steps = 1 + [self.tiles.is_some(), self.preview.is_some(), self.debug_dir.is_some(), self.masks.is_some()]
+            .iter()
+            .filter(|b| **b)
+            .count() as u64;
         let mut step = 0;
         let mut advance = || {
             step += 1;
@@ -184,6 +189,12 @@ impl OutputFiles {
         }
         if let Some(p) = &self.preview {
             ridgeline_terrain::io::write_rgb_png(p, &ridgeline_terrain::io::hillshade(out.terrain(), cell.unwrap_or(1.0)))?;
+            advance();
+        }
+        if let Some(m) = &self.masks {
+            let prov = crate::evaluation::provenance_of(&out.canvas, &report.exemplars);
+            let files = masks::write_masks(m, out.terrain(), cell.unwrap_or(1.0), &prov)?;
+            tracing::info!(folder = %m.dir.display(), files = files.len(), "masks written");
             advance();
         }
         if let Some(d) = &self.debug_dir {

@@ -196,6 +196,7 @@ fn job_builder(
             report: Some(dir.join("report.json")),
             debug_dir: req.debug.then(|| dir.to_path_buf()),
             georef: None,
+            masks: None,
         })
         .keep_features_only(req.debug)
         .elevation_range(req.elevation_range)
