@@ -84,13 +84,22 @@ $('use-result').addEventListener('click', () => lastHillshade && pad.setBackgrou
 $('no-background').addEventListener('click', () => pad.setBackground(null));
 $('token').addEventListener('change', (e) => localStorage.setItem('ridgeline-token', e.target.value));
 
-function resizeSketch() {
-  const w = Number($('width').value), h = Number($('height').value);
-  if (w >= 16 && h >= 16 && w <= 8192 && h <= 8192) {
-    pad.resize(w, h);
-    $('preview').width = w;
-    $('preview').height = h;
+// the sketch's size: refused with a message, not ignored, outside 16..8192
+function sizeProblem() {
+  for (const side of ['width', 'height']) {
+    const v = Number($(side).value);
+    if (!Number.isInteger(v) || v < 16 || v > 8192) return `${side} ${$(side).value}: give a whole number of cells from 16 to 8192`;
   }
+  return '';
+}
+function resizeSketch() {
+  const problem = sizeProblem();
+  showError(problem);
+  if (problem) return;
+  const w = Number($('width').value), h = Number($('height').value);
+  pad.resize(w, h);
+  $('preview').width = w;
+  $('preview').height = h;
 }
 $('width').addEventListener('change', resizeSketch);
 $('height').addEventListener('change', resizeSketch);
@@ -234,7 +243,8 @@ function watch(id) {
 }
 
 $('submit').addEventListener('click', async () => {
-  showError('');
+  showError(sizeProblem());
+  if (sizeProblem()) return;
   const chosen = checkboxes().filter((c) => c.checked).map((c) => c.value);
   if (!chosen.length) { showError('pick at least one exemplar'); return; }
   const tiles = Number($('tiles').value);

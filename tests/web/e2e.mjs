@@ -53,8 +53,23 @@ try {
   const page = await browser.newPage({ viewport: { width: 1500, height: 1250 }, acceptDownloads: true });
   const consoleErrors = [];
   page.on('pageerror', (e) => consoleErrors.push(String(e)));
+  const missing = [];
+  page.on('response', (r) => { if (r.status() === 404) missing.push(r.url()); });
   await page.goto(url);
   await page.waitForFunction(() => document.querySelectorAll('#exemplars img').length === 3, null, { timeout: 30000 });
+  // engine sizes are valid in the size and tile fields; a width over the limit is
+  // refused with a message instead of being ignored
+  for (const [field, v] of [['#width', '1009'], ['#height', '505'], ['#tiles', '1009'], ['#tiles', '505']]) {
+    await page.fill(field, v);
+    if (!(await page.$eval(field, (e) => e.checkValidity()))) fail(`${field} = ${v} is marked invalid`);
+  }
+  await page.fill('#tiles', '0');
+  await page.fill('#width', '9000');
+  await page.dispatchEvent('#width', 'change');
+  if (!(await page.isVisible('#error')) || !(await page.textContent('#error')).includes('16 to 8192')) {
+    fail(`a width of 9000 is not refused with a message: '${await page.textContent('#error')}'`);
+  }
+  if (missing.length) fail(`requests answered 404: ${missing.join(', ')}`);
   await page.fill('#width', String(SIZE));
   await page.dispatchEvent('#width', 'change');
   await page.fill('#height', String(SIZE));
