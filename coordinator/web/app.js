@@ -174,7 +174,8 @@ async function finished(status) {
   $('submit').disabled = false;
   $('cancel').disabled = true;
   if (status.state === 'failed') { showError(`the job failed: ${status.error}`); return; }
-  if (status.state === 'cancelled') { showError('the job was cancelled'); return; }
+  // a cancel is what the user asked for, not an error: the job's line says "cancelled"
+  if (status.state === 'cancelled') return;
   const base = `/api/jobs/${status.id}`;
   const img = $('hillshade');
   img.src = withToken(`${base}/files/preview.png`);

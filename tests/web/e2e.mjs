@@ -173,6 +173,19 @@ try {
 
   fs.mkdirSync(path.dirname(shot), { recursive: true });
   await page.screenshot({ path: shot, fullPage: true });
+
+  // a cancel the user asked for is shown as the job's state, not as an error
+  await page.fill('#width', '2048');
+  await page.dispatchEvent('#width', 'change');
+  await page.fill('#height', '2048');
+  await page.dispatchEvent('#height', 'change');
+  await page.click('#submit');
+  await page.waitForSelector('#job-state[data-state="running"]', { timeout: 60000 });
+  await page.click('#cancel');
+  await page.waitForSelector('#job-state[data-state="cancelled"], #job-state[data-state="done"]', { timeout: 120000 });
+  const ended = await page.getAttribute('#job-state', 'data-state');
+  if (ended === 'cancelled' && (await page.isVisible('#error'))) fail(`a cancel is shown as an error: ${await page.textContent('#error')}`);
+  console.log(`cancelled job: ${ended}, no error shown`);
   console.log(`web e2e passed; screenshot ${shot}`);
 } finally {
   await browser.close();
