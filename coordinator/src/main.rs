@@ -92,12 +92,12 @@ fn backend(
 /// jobs went with them).
 fn default_jobs_dir() -> PathBuf {
     let tmp = std::env::temp_dir();
-    // which processes live is read from /proc: where there is none, nothing is removed
-    let procs = Path::new("/proc/self").exists();
-    for e in std::fs::read_dir(&tmp).into_iter().filter(|_| procs).flatten().filter_map(|e| e.ok()) {
+    for e in std::fs::read_dir(&tmp).into_iter().flatten().filter_map(|e| e.ok()) {
         let name = e.file_name().to_string_lossy().into_owned();
         let pid = name.strip_prefix("ridgeline-jobs-").and_then(|p| p.parse::<u32>().ok());
-        if pid.is_some_and(|p| p != std::process::id() && !Path::new(&format!("/proc/{p}")).exists()) {
+        // where which processes live is unknown, nothing is removed
+        let gone = |p: u32| p != std::process::id() && ridgeline::service::jobs::process_alive(p) == Some(false);
+        if pid.is_some_and(gone) {
             tracing::info!(folder = %e.path().display(), "an earlier service's jobs folder removed");
             let _ = std::fs::remove_dir_all(e.path());
         }

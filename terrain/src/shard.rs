@@ -163,14 +163,19 @@ pub struct LevelSpec {
 /// The level at the output's own cell size: the first a shard is prepared at.
 pub const OUTPUT_LEVEL: usize = 0;
 
+/// Smallest patch side a level takes: below 16 cells a window of the exemplars'
+/// feature density always touches a ridge or valley, so hole filling would find no
+/// featureless candidate (patch 8 and 10 on the shared DEMs failed that way).
+pub const MIN_PATCH: usize = 16;
+
 /// Most levels a shard is prepared at.
 pub const MAX_LEVELS: usize = 8;
 
 impl LevelSpec {
     /// Refuses a level no shard can be prepared at.
     pub fn check(&self) -> Result<(), String> {
-        if self.patch < 16 || self.patch > 512 || !self.patch.is_multiple_of(2) {
-            return Err(format!("patch size {} must be even and within 16..=512", self.patch));
+        if self.patch < MIN_PATCH || self.patch > 512 || !self.patch.is_multiple_of(2) {
+            return Err(format!("patch size {} must be even and within {MIN_PATCH}..=512", self.patch));
         }
         if let Some(c) = self.out_cell {
             if !(c.is_finite() && c > 0.0) {

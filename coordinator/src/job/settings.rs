@@ -70,8 +70,8 @@ impl Default for JobSettings {
 
 /// Largest output cell size accepted (a degree of latitude is about 111 km).
 pub const MAX_CELL_SIZE_M: f32 = 100_000.0;
-/// Smallest patch side a job takes.
-pub const MIN_PATCH: usize = 16;
+/// Smallest patch side a job takes (the shard contract's).
+pub use ridgeline_terrain::shard::MIN_PATCH;
 /// Most candidates kept per user patch (each sizes the best-sets of every patch).
 pub const MAX_K: usize = 64;
 /// Most user patches in one round-1 block (each block's requests are sized by it).
@@ -80,9 +80,6 @@ pub const MAX_BLOCK: usize = 4096;
 impl JobSettings {
     /// Refuses settings no job can run with, saying which and why.
     pub fn validate(&self) -> Result<(), SynthError> {
-        // below 16 cells a window of the exemplars' feature density always touches a
-        // ridge or valley: hole filling would find no featureless candidate (patch 8 and
-        // 10 on the shared DEMs failed that way, after the work)
         if self.patch < MIN_PATCH || self.patch > 512 || !self.patch.is_multiple_of(2) {
             return Err(SynthError::Config(format!("patch size {} must be even and within {MIN_PATCH}..=512", self.patch)));
         }

@@ -55,36 +55,37 @@ impl MaskSettings {
 /// A mask's values, 0..1 a cell.
 type Mask = Vec<f32>;
 
-/// Slope in degrees / 90.
-pub fn slope(h: &Heightfield, cell: f32) -> Mask {
+/// `f(at, [x0, x1, y0, y1], x, y)` of every cell, row by row: `at` reads a height, the
+/// four neighbours' coordinates clamped to the terrain (a border cell is its own
+/// neighbour beyond the edge); a value that is not finite (a void) becomes 0.
+fn per_cell(h: &Heightfield, f: impl Fn(&dyn Fn(usize, usize) -> f32, [usize; 4], usize, usize) -> f32) -> Mask {
     let (w, hh) = (h.width, h.height);
     let at = |x: usize, y: usize| h.data[y * w + x];
     let mut out = vec![0f32; w * hh];
     for y in 0..hh {
         for x in 0..w {
-            let (x0, x1, y0, y1) = (x.saturating_sub(1), (x + 1).min(w - 1), y.saturating_sub(1), (y + 1).min(hh - 1));
-            let gx = (at(x1, y) - at(x0, y)) / (((x1 - x0).max(1)) as f32 * cell);
-            let gy = (at(x, y1) - at(x, y0)) / (((y1 - y0).max(1)) as f32 * cell);
-            let g = gx.hypot(gy);
-            out[y * w + x] = if g.is_finite() { g.atan().to_degrees() / 90.0 } else { 0.0 };
+            let v = f(&at, [x.saturating_sub(1), (x + 1).min(w - 1), y.saturating_sub(1), (y + 1).min(hh - 1)], x, y);
+            out[y * w + x] = if v.is_finite() { v } else { 0.0 };
         }
     }
     out
 }
 
+/// Slope in degrees / 90 (central differences; one-sided at the border).
+pub fn slope(h: &Heightfield, cell: f32) -> Mask {
+    per_cell(h, |at, [x0, x1, y0, y1], x, y| {
+        let gx = (at(x1, y) - at(x0, y)) / ((x1 - x0).max(1) as f32 * cell);
+        let gy = (at(x, y1) - at(x, y0)) / ((y1 - y0).max(1) as f32 * cell);
+        gx.hypot(gy).atan().to_degrees() / 90.0
+    })
+}
+
 /// Curvature: the Laplacian mapped to 0..1 about 0.5 (see the module header); also
 /// returns the scale (1/m) its ±0.5 stand for.
 pub fn curvature(h: &Heightfield, cell: f32) -> (Mask, f32) {
-    let (w, hh) = (h.width, h.height);
-    let at = |x: usize, y: usize| h.data[y * w + x];
-    let mut lap = vec![0f32; w * hh];
-    for y in 0..hh {
-        for x in 0..w {
-            let (x0, x1, y0, y1) = (x.saturating_sub(1), (x + 1).min(w - 1), y.saturating_sub(1), (y + 1).min(hh - 1));
-            let v = (at(x0, y) + at(x1, y) + at(x, y0) + at(x, y1) - 4.0 * at(x, y)) / (cell * cell);
-            lap[y * w + x] = if v.is_finite() { v } else { 0.0 };
-        }
-    }
+    let lap = per_cell(h, |at, [x0, x1, y0, y1], x, y| {
+        (at(x0, y) + at(x1, y) + at(x, y0) + at(x, y1) - 4.0 * at(x, y)) / (cell * cell)
+    });
     let mut mags: Vec<f32> = lap.iter().map(|v| v.abs()).collect();
     let k = (mags.len() * 99 / 100).min(mags.len().saturating_sub(1));
     let scale = if mags.is_empty() { 1.0 } else { *mags.select_nth_unstable_by(k, f32::total_cmp).1 }.max(1e-12);
@@ -130,25 +131,23 @@ fn quantise(v: f32, sixteen: bool) -> u16 {
     (v.clamp(0.0, 1.0) * max).round() as u16
 }
 
-fn write_grey(path: &Path, w: usize, h: usize, m: &[f32], sixteen: bool) -> Result<()> {
+/// Writes `channels` (one: grey; four: RGBA) interleaved as an 8- or 16-bit PNG.
+fn write_png(path: &Path, w: usize, h: usize, channels: &[&Mask], sixteen: bool) -> Result<()> {
+    let n = channels.len();
+    let samples: Vec<u16> = (0..w * h * n).map(|k| quantise(channels[k % n][k / n], sixteen)).collect();
+    let bytes = || samples.iter().map(|&v| v as u8).collect::<Vec<u8>>();
+    let (w32, h32) = (w as u32, h as u32);
+    let img: Option<image::DynamicImage> = match (n, sixteen) {
+        (1, true) => image::ImageBuffer::<image::Luma<u16>, _>::from_raw(w32, h32, samples.clone()).map(Into::into),
+        (4, true) => image::ImageBuffer::<image::Rgba<u16>, _>::from_raw(w32, h32, samples.clone()).map(Into::into),
+        (1, false) => image::GrayImage::from_raw(w32, h32, bytes()).map(Into::into),
+        (4, false) => image::RgbaImage::from_raw(w32, h32, bytes()).map(Into::into),
+        _ => None,
+    };
+    let img = img.ok_or_else(|| TerrainError::Other(format!("{}: {n} channels of {w} x {h}", path.display())))?;
     let mut png = Vec::new();
-    let cursor = &mut std::io::Cursor::new(&mut png);
-    let err = |e: image::ImageError| TerrainError::Other(format!("{}: {e}", path.display()));
-    if sixteen {
-        let img = image::ImageBuffer::<image::Luma<u16>, _>::from_raw(
-            w as u32,
-            h as u32,
-            m.iter().map(|&v| quantise(v, true)).collect::<Vec<u16>>(),
-        );
-        img.ok_or_else(|| TerrainError::Other(format!("{}: size", path.display())))?
-            .write_to(cursor, image::ImageFormat::Png)
-            .map_err(err)?;
-    } else {
-        let img = image::GrayImage::from_raw(w as u32, h as u32, m.iter().map(|&v| quantise(v, false) as u8).collect());
-        img.ok_or_else(|| TerrainError::Other(format!("{}: size", path.display())))?
-            .write_to(cursor, image::ImageFormat::Png)
-            .map_err(err)?;
-    }
+    img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .map_err(|e| TerrainError::Other(format!("{}: {e}", path.display())))?;
     ridgeline_terrain::io::write_atomic(path, &png)
 }
 
@@ -185,30 +184,13 @@ pub fn write_masks(set: &MaskSettings, terrain: &Heightfield, cell: f32, provena
     let mut index = serde_json::Map::new();
     for (name, (m, meaning)) in &masks {
         let p = set.dir.join(format!("{name}.png"));
-        write_grey(&p, w, h, m, set.sixteen_bit)?;
+        write_png(&p, w, h, &[m], set.sixteen_bit)?;
         index.insert(format!("{name}.png"), serde_json::json!(meaning));
         files.push(p);
     }
     let splat = set.dir.join("splat.png");
-    let ch: Vec<&Mask> = set.splat.iter().map(|c| &masks[c].0).collect();
-    let mut png = Vec::new();
-    let cursor = &mut std::io::Cursor::new(&mut png);
-    let err = |e: image::ImageError| TerrainError::Other(format!("{}: {e}", splat.display()));
-    let size_err = || TerrainError::Other(format!("{}: size", splat.display()));
-    if set.sixteen_bit {
-        let px: Vec<u16> = (0..w * h).flat_map(|i| ch.iter().map(move |m| quantise(m[i], true))).collect();
-        image::ImageBuffer::<image::Rgba<u16>, _>::from_raw(w as u32, h as u32, px)
-            .ok_or_else(size_err)?
-            .write_to(cursor, image::ImageFormat::Png)
-            .map_err(err)?;
-    } else {
-        let px: Vec<u8> = (0..w * h).flat_map(|i| ch.iter().map(move |m| quantise(m[i], false) as u8)).collect();
-        image::RgbaImage::from_raw(w as u32, h as u32, px)
-            .ok_or_else(size_err)?
-            .write_to(cursor, image::ImageFormat::Png)
-            .map_err(err)?;
-    }
-    ridgeline_terrain::io::write_atomic(&splat, &png)?;
+    let channels: Vec<&Mask> = set.splat.iter().map(|c| &masks[c].0).collect();
+    write_png(&splat, w, h, &channels, set.sixteen_bit)?;
     index.insert("splat.png".into(), serde_json::json!(format!("RGBA: {}", set.splat.join(", "))));
     files.push(splat);
     let json = set.dir.join("masks.json");

@@ -158,9 +158,8 @@ impl JobQueue {
         std::fs::create_dir_all(&self.root)?;
         let owner = self.root.join(".owner");
         if let Some(pid) = std::fs::read_to_string(&owner).ok().and_then(|s| s.trim().parse::<u32>().ok()) {
-            // without /proc, which processes live is unknown: taken as alive
-            let alive = !std::path::Path::new("/proc/self").exists() || std::path::Path::new(&format!("/proc/{pid}")).exists();
-            if pid != std::process::id() && alive {
+            // where which processes live is unknown, taken as alive
+            if pid != std::process::id() && process_alive(pid).unwrap_or(true) {
                 return Err(std::io::Error::other(format!(
                     "another ridgeline service (process {pid}) uses this jobs folder; give each service its own --jobs-dir"
                 )));
@@ -396,6 +395,11 @@ impl JobQueue {
             self.publish_status(&id);
         }
     }
+}
+
+/// Whether process `pid` lives, from /proc; `None` where there is no /proc to tell.
+pub fn process_alive(pid: u32) -> Option<bool> {
+    std::path::Path::new("/proc/self").exists().then(|| std::path::Path::new(&format!("/proc/{pid}")).exists())
 }
 
 /// Whether `name` is one a job's folder gets (`j`, six digits, `-`, hex).

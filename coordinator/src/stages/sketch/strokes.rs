@@ -143,7 +143,10 @@ impl StrokeSketch {
     /// on their canvas or, scaled, on an output of `w x h` (where the large-scale form
     /// indexes them): bounded before any work, whatever the points' count and spread.
     pub fn check_work(&self, w: usize, h: usize) -> Result<(), String> {
-        let work = stroke_work(&self.strokes, self.width, self.height).max(stroke_work(&self.scaled_to(w, h), w, h));
+        let mut work = stroke_work(&self.strokes, self.width, self.height);
+        if (w, h) != (self.width, self.height) {
+            work = work.max(stroke_work(&self.scaled_to(w, h), w, h));
+        }
         if work > MAX_STROKE_WORK {
             return Err(format!(
                 "the strokes would take {work} cell tests to draw, more than {MAX_STROKE_WORK}: use fewer points (one every few cells is enough), thinner pens or shorter strokes"
