@@ -288,7 +288,10 @@ fn main() {
         let seconds = t.elapsed().as_secs_f64();
         let cell = out.report.cell_size_m;
         let prov = evaluation::provenance_of(&out.output.canvas, &out.report.exemplars);
-        let sources = evaluation::load_library(lib, cell, Some(&prov)).expect("sources");
+        let sources = evaluation::source_figures::of_heights(
+            &evaluation::load_library(lib, cell, Some(&prov)).expect("sources"),
+            cell.unwrap_or(90.0),
+        );
         let e = evaluation::evaluate(&Inputs {
             terrain: out.terrain(),
             cell_m: cell.unwrap_or(90.0),

@@ -391,7 +391,7 @@ fn evaluate(a: EvaluateArgs) -> Result<()> {
             bail!("--cell-size {c}: give a positive number of metres");
         }
     }
-    let sources = evaluation::load_sources(&library, cell, provenance.as_ref())?;
+    let sources = evaluation::source_figures::of_sources(&library, cell, cell.unwrap_or(90.0), provenance.as_ref(), None)?;
     if sources.is_empty() {
         bail!("{}: no exemplar of the library supplied this terrain (is it the job's library?)", a.exemplars.display());
     }

@@ -84,6 +84,8 @@ pub struct SessionBuilder {
     cancel: CancelToken,
     /// Other files the job reads, which no output may overwrite.
     inputs: Vec<(String, PathBuf)>,
+    /// The report without its realism figures ([`SessionBuilder::realism_figures`]).
+    no_realism: bool,
 }
 
 /// A validated job, ready to run.
@@ -100,6 +102,8 @@ pub struct Session {
     settings: JobSettings,
     progress: Progress,
     cancel: CancelToken,
+    /// Whether the report gets the realism figures (`evaluation`).
+    realism: bool,
 }
 
 /// A finished job.
@@ -235,6 +239,13 @@ impl SessionBuilder {
         self.inputs.push((name.to_string(), path.into()));
         self
     }
+    /// Whether a report gets the realism figures (`evaluation`; default on). Off, the
+    /// report has the job's own figures (timings, adherence, seams) and no
+    /// `evaluation`, and the job needs no memory for one.
+    pub fn realism_figures(mut self, on: bool) -> Self {
+        self.no_realism = !on;
+        self
+    }
     /// The files to write (none: the caller takes [`Finished::output`]).
     pub fn outputs(mut self, o: OutputFiles) -> Self {
         self.outputs = Some(o);
@@ -329,6 +340,7 @@ impl SessionBuilder {
             settings: cfg,
             progress,
             cancel: self.cancel,
+            realism: !self.no_realism,
         })
     }
 }
@@ -372,10 +384,12 @@ impl Session {
         let files = match &self.outputs {
             None => Vec::new(),
             Some(o) => {
-                let wants_sources = o.report.is_some() || o.debug_dir.is_some();
-                let sources = if wants_sources { Some(sources_of(&self.sources, &output, &report)?) } else { None };
-                if let (Some(_), Some(sources)) = (&o.report, &sources) {
-                    let e = run.run(Stage::Evaluation, |_| Ok(crate::outputs::evaluate(&output, &report, sources)))?;
+                // the debug views' landforms beside the main source's need its heights
+                let sources = if o.debug_dir.is_some() { Some(sources_of(&self.sources, &output, &report)?) } else { None };
+                if o.report.is_some() && self.realism {
+                    let cache = set.cache_dir.as_deref();
+                    let e =
+                        run.run(Stage::Evaluation, |_| Ok(crate::outputs::evaluate(&output, &report, &self.sources, cache)?))?;
                     report.evaluation = Some(e);
                 }
                 let staged = run.run(Stage::Write, |cx| Ok(o.stage(&output, &report, sources.as_deref(), cx)?))?;
@@ -396,7 +410,7 @@ impl Session {
     /// that cannot be read at all is left for the exemplars stage to report.
     fn check_memory(&self, sketch: &Path) -> Result<(), SessionError> {
         let (width, height) = (self.sketch.size().0 as u64, self.sketch.size().1 as u64);
-        let evaluated = self.outputs.as_ref().is_some_and(|o| o.report.is_some());
+        let evaluated = self.realism && self.outputs.as_ref().is_some_and(|o| o.report.is_some());
         let budget = self.settings.max_memory;
         let check = |lib: &[(String, u64)]| crate::job::memory_budget::check(sketch, width, height, lib, evaluated, budget);
         let cell = self.settings.cell_size.or_else(|| common_cell_size(&self.sources));

@@ -147,7 +147,8 @@ fn a_stroked_sketch_becomes_a_terrain_with_every_download_and_a_ridge_under_the_
     assert!(img.width().max(img.height()) <= 96 && img.width() > 8, "a thumbnail");
 
     let (w, h) = (192usize, 160usize);
-    let body = serde_json::json!({ "sketch": { "strokes": strokes(w, h) }, "seed": 3, "patch_size": 32, "tiles": 96, "debug": true, "erode": 2.0 });
+    let body = serde_json::json!({ "sketch": { "strokes": strokes(w, h) }, "seed": 3, "patch_size": 32, "tiles": 96, "tile_format": "png",
+        "debug": true, "erode": 2.0, "masks": true, "realism": true });
     let (code, st) = post(&format!("{}/api/jobs", s.url), &body, None);
     assert_eq!(code, 202, "{st}");
     let id = st["id"].as_str().unwrap().to_string();
@@ -171,7 +172,21 @@ fn a_stroked_sketch_becomes_a_terrain_with_every_download_and_a_ridge_under_the_
     ] {
         assert!(files.contains(&want), "{want} in {files:?}");
     }
-    assert!(files.iter().any(|f| f.starts_with("terrain_x1_y0")), "tiles: {files:?}");
+    // tiles in the format asked for (16-bit PNGs with sidecars)
+    assert!(files.contains(&"terrain16_x1_y0.png") && files.contains(&"terrain16_x1_y0.json"), "tiles: {files:?}");
+    // the texture masks, in the job's masks/, downloadable by that name
+    for want in ["masks/slope.png", "masks/flow.png", "masks/splat.png", "masks/masks.json", "masks/source_rockies.png"] {
+        assert!(files.contains(&want), "mask {want} in {files:?}");
+    }
+    let mut mask = Vec::new();
+    ureq::get(&format!("{}/api/jobs/{id}/files/masks/slope.png", s.url))
+        .call()
+        .unwrap()
+        .into_reader()
+        .read_to_end(&mut mask)
+        .unwrap();
+    let mask = image::load_from_memory(&mask).unwrap();
+    assert_eq!((mask.width() as usize, mask.height() as usize), (w, h), "a mask the size of the terrain");
     for want in ["seams.png", "landforms.png", "provenance.json", "features_only.png"] {
         assert!(files.contains(&want), "debug view {want} in {files:?}");
     }
@@ -249,6 +264,10 @@ fn bad_requests_get_clear_json_errors_and_the_token_is_required() {
         (serde_json::json!({ "sketch": { "strokes": strokes(64, 64) }, "elevation_range": [900.0, 100.0] }), "the lower first"),
         (serde_json::json!({ "sketch": { "strokes": strokes(64, 64) }, "erode": 0.0 }), "erosion strength"),
         (serde_json::json!({ "sketch": { "strokes": strokes(64, 64) }, "erode": 50.0 }), "at most 10"),
+        (
+            serde_json::json!({ "sketch": { "strokes": strokes(64, 64) }, "tile_format": "bmp" }),
+            "tile_format 'bmp': give one of tif, exr, png, r16",
+        ),
     ];
     for (body, want) in cases {
         let (code, e) = post(&jobs, &body, tok);
@@ -321,8 +340,19 @@ fn a_full_queue_is_refused_and_cancel_stops_queued_and_running_jobs() {
     // the service goes on
     let (code, c) = post(&jobs, &serde_json::json!({ "sketch": { "strokes": strokes(96, 96) }, "patch_size": 32 }), None);
     assert_eq!(code, 202, "{c}");
-    let (fin, _) = follow(&s.url, c["id"].as_str().unwrap());
+    let c = c["id"].as_str().unwrap().to_string();
+    let (fin, _) = follow(&s.url, &c);
     assert_eq!(fin["state"], "done", "{fin}");
+    // realism figures are off unless asked for: the report has the job's own figures
+    let report: serde_json::Value = serde_json::from_str(
+        &ureq::get(&format!("{}/api/jobs/{c}/files/report.json", s.url)).call().unwrap().into_string().unwrap(),
+    )
+    .unwrap();
+    assert!(
+        report["evaluation"].is_null() && report["stages"].as_array().unwrap().iter().all(|s| s["stage"] != "evaluation"),
+        "{report}"
+    );
+    assert!(report["adherence"].is_object(), "the job's own figures are there: {report}");
 }
 
 #[test]

@@ -1,6 +1,9 @@
 // The page: wires the sketch pad, the job settings and the exemplar picker to the
 // service's API, shows per-stage progress and the patches as they are placed, then
-// the hillshade, the 3D view and the downloads. Every server error is shown in words.
+// the hillshade, the 3D view, the realism figures and the downloads. The drawing,
+// the settings and the last job are kept in the browser (localStorage) so a reload
+// finds them; earlier jobs are listed from the service. Every server error is shown
+// in words.
 
 import { SketchPad } from './sketchpad.js';
 import { TerrainView } from './view3d.js';
@@ -55,7 +58,15 @@ for (const b of document.querySelectorAll('button.pen')) {
     pad.pen = b.dataset.pen;
   });
 }
-$('brush').addEventListener('input', (e) => { pad.width = Number(e.target.value); $('brush-out').value = e.target.value; });
+// the brush: a slider and a number box kept equal; [ and ] step it by one
+function setBrush(v) {
+  const w = Math.min(64, Math.max(1, Math.round(Number(v) || 1)));
+  pad.width = w;
+  $('brush').value = w;
+  $('brush-num').value = w;
+}
+$('brush').addEventListener('input', (e) => setBrush(e.target.value));
+$('brush-num').addEventListener('change', (e) => setBrush(e.target.value));
 // the pens' elevation: strokes drawn while it is set carry it at every point
 const pinElevation = () => {
   $('elevation').disabled = !$('pin-elevation').checked;
@@ -69,6 +80,7 @@ $('clear').addEventListener('click', () => pad.clear());
 document.addEventListener('keydown', (e) => {
   if (e.target.tagName === 'INPUT') return;
   if ((e.ctrlKey || e.metaKey) && e.key.toLowerCase() === 'z') { e.preventDefault(); e.shiftKey ? pad.redo() : pad.undo(); }
+  if (e.key === '[' || e.key === ']') setBrush(pad.width + (e.key === ']' ? 1 : -1));
   const pens = { r: 'ridge', v: 'valley', e: 'eraser' };
   if (pens[e.key]) document.querySelector(`button.pen[data-pen=${pens[e.key]}]`).click();
 });
@@ -83,6 +95,65 @@ $('background').addEventListener('change', (e) => {
 $('use-result').addEventListener('click', () => lastHillshade && pad.setBackground(lastHillshade));
 $('no-background').addEventListener('click', () => pad.setBackground(null));
 $('token').addEventListener('change', (e) => localStorage.setItem('ridgeline-token', e.target.value));
+
+// --- the sketch as strokes JSON: saved, loaded, and kept across reloads
+$('save-sketch').addEventListener('click', () => {
+  const blob = new Blob([JSON.stringify(pad.toJSON())], { type: 'application/json' });
+  const a = document.createElement('a');
+  a.href = URL.createObjectURL(blob);
+  a.download = 'sketch.json';
+  a.click();
+  setTimeout(() => URL.revokeObjectURL(a.href), 1000);
+});
+$('load-sketch').addEventListener('change', async (e) => {
+  const f = e.target.files[0];
+  e.target.value = '';
+  if (!f) return;
+  try {
+    let sketch;
+    try { sketch = JSON.parse(await f.text()); } catch (err) { throw new Error(`not JSON (${err.message})`); }
+    SketchPad.parse(sketch, 1, 1);
+    // the canvas takes the sketch's size when it is one the service takes
+    if (Number.isInteger(sketch.width) && Number.isInteger(sketch.height) && sketch.width >= 16 && sketch.height >= 16 && sketch.width <= 8192 && sketch.height <= 8192) {
+      $('width').value = sketch.width;
+      $('height').value = sketch.height;
+      resizeSketch();
+    }
+    pad.load(sketch);
+    showError('');
+  } catch (err) {
+    showError(`${f.name}: ${err.message}`);
+  }
+});
+
+const SETTINGS = ['width', 'height', 'seed', 'patch', 'tiles', 'tile-format', 'range-lo', 'range-hi', 'masks', 'realism', 'debug'];
+function keep() {
+  const settings = {};
+  for (const id of SETTINGS) settings[id] = $(id).type === 'checkbox' ? $(id).checked : $(id).value;
+  const unchecked = checkboxes().filter((c) => !c.checked).map((c) => c.value);
+  try {
+    localStorage.setItem('ridgeline-page', JSON.stringify({ sketch: pad.toJSON(), settings, unchecked, brush: pad.width }));
+  } catch (_) { /* storage full or off: the page still works */ }
+}
+function restore() {
+  let kept;
+  try { kept = JSON.parse(localStorage.getItem('ridgeline-page') || 'null'); } catch (_) { kept = null; }
+  if (!kept) return null;
+  for (const id of SETTINGS) {
+    const v = kept.settings?.[id];
+    if (v === undefined) continue;
+    if ($(id).type === 'checkbox') $(id).checked = Boolean(v); else $(id).value = v;
+  }
+  if (kept.brush) setBrush(kept.brush);
+  resizeSketch();
+  try {
+    pad.strokes = SketchPad.parse(kept.sketch, pad.canvas.width, pad.canvas.height);
+    pad.render();
+  } catch (_) { /* a drawing from another version: start empty */ }
+  return kept;
+}
+pad.onchange = keep;
+for (const id of SETTINGS) $(id).addEventListener('change', keep);
 
 // the sketch's size: refused with a message, not ignored, outside 16..8192
 function sizeProblem() {
@@ -105,7 +176,11 @@ $('width').addEventListener('change', resizeSketch);
 $('height').addEventListener('change', resizeSketch);
 
 // --- exemplars
-async function loadExemplars() {
+function countExemplars() {
+  const all = checkboxes();
+  $('exemplar-count').textContent = `${all.filter((c) => c.checked).length} of ${all.length} selected`;
+}
+async function loadExemplars(unchecked = []) {
   const res = await api('/api/exemplars');
   const { exemplars } = await res.json();
   const box = $('exemplars');
@@ -116,9 +191,10 @@ async function loadExemplars() {
     label.title = e.name;
     const cb = document.createElement('input');
     cb.type = 'checkbox';
-    cb.checked = true;
     cb.value = e.name;
-    cb.addEventListener('change', () => label.classList.toggle('off', !cb.checked));
+    cb.checked = !unchecked.includes(e.name);
+    label.classList.toggle('off', !cb.checked);
+    cb.addEventListener('change', () => { label.classList.toggle('off', !cb.checked); countExemplars(); keep(); });
     const img = document.createElement('img');
     img.loading = 'lazy';
     img.alt = e.name;
@@ -128,6 +204,7 @@ async function loadExemplars() {
     label.append(cb, img, name);
     box.append(label);
   }
+  countExemplars();
 }
 const checkboxes = () => [...document.querySelectorAll('#exemplars input')];
 $('all').addEventListener('click', (e) => { e.preventDefault(); checkboxes().forEach((c) => { c.checked = true; c.dispatchEvent(new Event('change')); }); });
@@ -176,7 +253,13 @@ async function finished(status) {
   if (status.state === 'failed') { showError(`the job failed: ${status.error}`); return; }
   // a cancel is what the user asked for, not an error: the job's line says "cancelled"
   if (status.state === 'cancelled') return;
+  await showJob(status);
+}
+
+/// A finished job's result: hillshade, downloads, realism figures, 3D view.
+async function showJob(status) {
   const base = `/api/jobs/${status.id}`;
+  showProgress(status);
   const img = $('hillshade');
   img.src = withToken(`${base}/files/preview.png`);
   img.onload = () => { lastHillshade = img; $('use-result').disabled = false; };
@@ -199,14 +282,22 @@ async function finished(status) {
     'provenance_cells.u32': 'debug: the placement of every cell',
     'landforms.png': 'debug: landforms of the output beside its main source',
     'seams.png': 'debug: seam map',
+    'masks/slope.png': 'mask: slope in degrees / 90',
+    'masks/curvature.png': 'mask: curvature (above mid-grey convex, below concave)',
+    'masks/flow.png': 'mask: flow accumulation (log)',
+    'masks/landforms.png': 'mask: geomorphon class / 9',
+    'masks/splat.png': 'RGBA splat map of four masks',
+    'masks/masks.json': 'what each mask holds',
   };
+  const describeFile = (f) => describe[f] || (f.startsWith('masks/source_') ? 'mask: cells this exemplar supplied' : f.includes('_x') ? 'tile' : '');
   for (const f of status.files) {
     const li = document.createElement('li');
     const a = document.createElement('a');
     a.href = withToken(`${base}/files/${encodeURIComponent(f)}`);
     a.textContent = f;
     a.download = f;
-    li.append(a, document.createTextNode(describe[f] ? ` — ${describe[f]}` : (f.includes('_x') ? ' — tile' : '')));
+    const what = describeFile(f);
+    li.append(a, document.createTextNode(what ? ` — ${what}` : ''));
     list.append(li);
   }
   $('downloads').hidden = false;
@@ -217,7 +308,11 @@ async function finished(status) {
     view = view || new TerrainView($('view3d'));
     // the report knows the output's cell size; the heights come at w of status.width samples
     let cell = 90;
-    try { cell = (await (await api(`${base}/files/report.json`)).json()).cell_size_m || 90; } catch (_) { /* keep 90 m */ }
+    try {
+      const report = await (await api(`${base}/files/report.json`)).json();
+      cell = report.cell_size_m || 90;
+      showFigures(report.evaluation);
+    } catch (_) { /* keep 90 m */ }
     view.setTerrain(heights, w, h, cell * status.width / w);
     view.setExaggeration(Number($('exaggeration').value));
     $('view3d').dataset.rendered = 'true';
@@ -225,6 +320,76 @@ async function finished(status) {
     showError(`the 3D view could not be shown: ${e.message}`);
   }
 }
+// the realism figures of report.json, when the job computed them
+function showFigures(ev) {
+  $('figures').hidden = !ev;
+  if (!ev) return;
+  const f = (v, d = 3) => (v === null || v === undefined ? '–' : Number(v).toFixed(d));
+  const pct = (v) => (v === null || v === undefined ? '–' : `${(100 * v).toFixed(1)}%`);
+  const rows = [
+    ['ridge adherence', f(ev.adherence?.ridge), 'share of ridge points that are crests'],
+    ['valley adherence', f(ev.adherence?.valley), 'share of valley points that are floors'],
+    ['landform distance', f(ev.landform_distance), 'vs the exemplars (0 = same mix)'],
+    ['roughness ratio', f(ev.roughness_ratio, 2), 'vs the exemplars (1 = as rough)'],
+    ['spectral slope difference', f(ev.spectral_slope_difference, 2), 'negative: smoother'],
+    ['seam score', f(ev.seams?.mean_ratio, 2), 'jumps across seams / inside patches'],
+    ['ridge above valley', f(ev.ridge_above_valley?.above_nearest_valley), 'share of ridge cells above the nearest valley'],
+    ['sink area', pct(ev.drainage?.sink_share), `exemplars ${pct(ev.source_drainage?.sink_share)}`],
+    ['elevation range', `${f(ev.elevation_range?.[0], 0)} to ${f(ev.elevation_range?.[1], 0)} m`, `exemplars ${f(ev.source_elevation_range?.[0], 0)} to ${f(ev.source_elevation_range?.[1], 0)} m`],
+  ];
+  const table = $('figures-table');
+  table.textContent = '';
+  for (const r of rows) {
+    const tr = document.createElement('tr');
+    for (const c of r) { const td = document.createElement('td'); td.textContent = c; tr.append(td); }
+    table.append(tr);
+  }
+}
+
+// --- earlier jobs (the service keeps the latest ones and their files)
+async function listJobs() {
+  const { jobs } = await (await api('/api/jobs')).json();
+  const ul = $('jobs');
+  ul.textContent = '';
+  for (const j of jobs) {
+    const li = document.createElement('li');
+    li.dataset.id = j.id;
+    li.classList.toggle('current', j.id === job?.id);
+    const label = document.createElement('span');
+    label.textContent = `${j.id} · ${j.state}${j.seconds ? ` · ${j.seconds.toFixed(1)} s` : ''}`;
+    li.append(label);
+    if (j.state === 'done' || j.state === 'queued' || j.state === 'running') {
+      const a = document.createElement('a');
+      a.href = '#';
+      a.textContent = 'show';
+      a.addEventListener('click', (e) => { e.preventDefault(); openJob(j.id).catch((err) => showError(err.message)); });
+      li.append(a);
+    }
+    ul.append(li);
+  }
+}
+$('refresh-jobs').addEventListener('click', (e) => { e.preventDefault(); listJobs().catch((err) => showError(err.message)); });
+
+/// Shows job `id`: its result when done, its progress while it runs.
+async function openJob(id) {
+  const status = await (await api(`/api/jobs/${encodeURIComponent(id)}`)).json();
+  job = status;
+  localStorage.setItem('ridgeline-job', id);
+  showError('');
+  if (status.state === 'done') {
+    events?.close();
+    await showJob(status);
+  } else if (status.state === 'queued' || status.state === 'running') {
+    $('submit').disabled = true;
+    $('cancel').disabled = false;
+    showProgress(status);
+    watch(id);
+  } else {
+    showProgress(status);
+  }
+  document.querySelectorAll('#jobs li').forEach((li) => li.classList.toggle('current', li.dataset.id === id));
+}
+
 $('exaggeration').addEventListener('input', (e) => { $('exaggeration-out').value = e.target.value; view?.setExaggeration(Number(e.target.value)); });
 
 function watch(id) {
@@ -236,7 +401,7 @@ function watch(id) {
   events.addEventListener('status', (e) => {
     const s = JSON.parse(e.data);
     showProgress(s);
-    if (['done', 'failed', 'cancelled'].includes(s.state)) { events.close(); finished(s); }
+    if (['done', 'failed', 'cancelled'].includes(s.state)) { events.close(); finished(s); listJobs().catch(() => {}); }
   });
   events.onerror = () => {
     if (events.readyState === EventSource.CLOSED) showError('lost the connection to the service while watching the job');
@@ -258,15 +423,20 @@ $('submit').addEventListener('click', async () => {
     seed: Number($('seed').value),
     patch_size: Number($('patch').value),
     tiles: tiles > 0 ? tiles : null,
+    tile_format: $('tile-format').value,
+    masks: $('masks').checked,
+    realism: $('realism').checked,
     debug: $('debug').checked,
     elevation_range: lo === '' ? null : [Number(lo), Number(hi)],
   };
   $('submit').disabled = true;
   $('result').hidden = true;
   $('downloads').hidden = true;
+  $('figures').hidden = true;
   try {
     const res = await api('/api/jobs', { method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(body) });
     job = await res.json();
+    localStorage.setItem('ridgeline-job', job.id);
     $('cancel').disabled = false;
     showProgress(job);
     watch(job.id);
@@ -281,5 +451,12 @@ $('cancel').addEventListener('click', async () => {
   try { await api(`/api/jobs/${job.id}/cancel`, { method: 'POST' }); } catch (e) { showError(e.message); }
 });
 
-resizeSketch();
-loadExemplars().catch((e) => showError(`the exemplar library could not be listed: ${e.message}`));
+// start: the kept drawing and settings, the library, the last job and the list
+const kept = restore();
+if (!kept) resizeSketch();
+loadExemplars(kept?.unchecked || []).catch((e) => showError(`the exemplar library could not be listed: ${e.message}`));
+listJobs().catch(() => { /* shown when the user asks */ });
+const lastJob = localStorage.getItem('ridgeline-job');
+if (lastJob) {
+  openJob(lastJob).catch(() => localStorage.removeItem('ridgeline-job'));
+}

@@ -1,5 +1,6 @@
 // The sketch canvas: strokes with a ridge pen, a valley pen and an eraser, undo and
-// redo, an optional background image to trace over. The canvas holds one pixel per
+// redo of every change (a stroke, Clear, a loaded sketch), an optional background
+// image to trace over, and the strokes as JSON (saved, loaded, kept by the page). The canvas holds one pixel per
 // output cell; strokes are kept as polylines in cells and sent to the service as
 // such: pen, width, and, when the elevation control is set, the height at every point
 // (the service keeps them as typed strokes; see `stages/sketch`).
@@ -9,6 +10,9 @@ export class SketchPad {
     this.canvas = canvas;
     this.ctx = canvas.getContext('2d');
     this.strokes = [];
+    // earlier and undone states of the stroke list (strokes are never changed once
+    // drawn, so states share them)
+    this.undoStack = [];
     this.redoStack = [];
     this.pen = 'ridge';
     this.width = 4;
@@ -30,7 +34,8 @@ export class SketchPad {
     // strokes are in cells: scale them with the canvas so the drawing keeps its shape
     const sx = w / this.canvas.width, sy = h / this.canvas.height;
     if (sx !== 1 || sy !== 1) {
-      for (const s of [...this.strokes, ...this.redoStack]) s.points = s.points.map(([x, y]) => [x * sx, y * sy]);
+      const all = new Set([this.strokes, ...this.undoStack, ...this.redoStack].flat());
+      for (const s of all) s.points = s.points.map(([x, y]) => [x * sx, y * sy]);
     }
     this.canvas.width = w;
     this.canvas.height = h;
@@ -47,9 +52,7 @@ export class SketchPad {
   down(e) {
     this.canvas.setPointerCapture?.(e.pointerId);
     this.current = { pen: this.pen, width: this.width, elevation: this.pen === 'eraser' ? null : this.elevation, points: [this.cell(e)] };
-    this.strokes.push(this.current);
-    this.redoStack = [];
-    this.render();
+    this.change([...this.strokes, this.current], false);
   }
 
   move(e) {
@@ -68,23 +71,34 @@ export class SketchPad {
     this.onchange();
   }
 
+  /// Makes `strokes` the drawing, the old one undoable.
+  change(strokes, notify = true) {
+    this.undoStack.push(this.strokes);
+    this.redoStack = [];
+    this.strokes = strokes;
+    this.render();
+    if (notify) this.onchange();
+  }
+
   undo() {
-    if (this.strokes.length) this.redoStack.push(this.strokes.pop());
+    if (!this.undoStack.length) return;
+    this.redoStack.push(this.strokes);
+    this.strokes = this.undoStack.pop();
     this.render();
     this.onchange();
   }
 
   redo() {
-    if (this.redoStack.length) this.strokes.push(this.redoStack.pop());
+    if (!this.redoStack.length) return;
+    this.undoStack.push(this.strokes);
+    this.strokes = this.redoStack.pop();
     this.render();
     this.onchange();
   }
 
+  /// Clears the drawing (undoable).
   clear() {
-    this.redoStack = this.strokes.reverse().concat(this.redoStack);
-    this.strokes = [];
-    this.render();
-    this.onchange();
+    if (this.strokes.length) this.change([]);
   }
 
   setBackground(img) {
@@ -124,6 +138,35 @@ export class SketchPad {
     ctx.drawImage(layer, 0, 0);
   }
 
+  /// Replaces the drawing with a sketch as `toJSON` gives it (undoable), its
+  /// strokes scaled to this canvas; throws an Error saying what is wrong with it.
+  load(sketch) {
+    this.change(SketchPad.parse(sketch, this.canvas.width, this.canvas.height));
+  }
+
+  /// The strokes of a sketch object, checked, in cells of a w x h canvas.
+  static parse(sketch, w, h) {
+    const num = (v) => typeof v === 'number' && Number.isFinite(v);
+    if (!sketch || typeof sketch !== 'object' || !Array.isArray(sketch.strokes)) throw new Error('not a sketch: it needs "width", "height" and a list of "strokes"');
+    if (!num(sketch.width) || !num(sketch.height) || sketch.width < 1 || sketch.height < 1) throw new Error('"width" and "height" must be positive numbers');
+    const sx = w / sketch.width, sy = h / sketch.height;
+    return sketch.strokes.map((s, i) => {
+      if (!s || !['ridge', 'valley', 'eraser'].includes(s.pen)) throw new Error(`stroke ${i + 1}: "pen" must be ridge, valley or eraser`);
+      if (!num(s.width) || s.width < 1 || s.width > 64) throw new Error(`stroke ${i + 1}: "width" must be 1 to 64 cells`);
+      if (!Array.isArray(s.points) || !s.points.length || !s.points.every((p) => Array.isArray(p) && p.length === 2 && num(p[0]) && num(p[1]))) {
+        throw new Error(`stroke ${i + 1}: "points" must be a list of [x, y] numbers`);
+      }
+      const out = { pen: s.pen, width: s.width, elevation: null, points: s.points.map(([x, y]) => [x * sx, y * sy]) };
+      // per-point values are kept as they came (the pad draws with the stroke's width)
+      for (const k of ['elevations', 'widths']) {
+        if (s[k] === undefined || s[k] === null) continue;
+        if (!Array.isArray(s[k]) || s[k].length !== s.points.length || !s[k].every(num)) throw new Error(`stroke ${i + 1}: "${k}" must be one number per point`);
+        out[k] = s[k].slice();
+      }
+      return out;
+    });
+  }
+
   /// The strokes as the service takes them.
   toJSON() {
     return {
@@ -131,7 +174,9 @@ export class SketchPad {
       height: this.canvas.height,
       strokes: this.strokes.map((s) => {
         const out = { pen: s.pen, width: s.width, points: s.points };
-        if (s.elevation !== null && s.elevation !== undefined) out.elevations = s.points.map(() => s.elevation);
+        if (s.elevations) out.elevations = s.elevations;
+        else if (s.elevation !== null && s.elevation !== undefined) out.elevations = s.points.map(() => s.elevation);
+        if (s.widths) out.widths = s.widths;
         return out;
       }),
     };

@@ -1,25 +1,50 @@
-// The 3D view: the terrain as a lit mesh (WebGL 1), an orbit camera (drag to turn,
+// The 3D view: the terrain as a mesh (WebGL 1), an orbit camera (drag to turn,
 // wheel to zoom) and a vertical exaggeration. Heights come from the service's
 // `/heights` (f32 rows), at most 255 samples a side here so 16-bit indices suffice.
+// Colour follows real elevation in metres and real slope (green lowlands, alpine
+// meadow above about 1,800 m, rock on slopes steeper than about 35 degrees and high
+// up, snow above about 4,000 m where it can lie); light comes from a low sun in the
+// north-west with cast shadows (marched over the heights at the exaggeration shown)
+// and a sky term, so the relief reads at any exaggeration.
 
 const VS = `
-attribute vec3 pos; attribute vec3 nrm;
-uniform mat4 mvp; uniform float exag; uniform vec2 range;
-varying float h; varying vec3 n;
+attribute vec3 pos; attribute vec3 nrm; attribute float elev; attribute float lit;
+uniform mat4 mvp; uniform float exag;
+varying float m; varying float steep; varying float sun; varying vec3 n;
 void main() {
-  h = (pos.y - range.x) / max(range.y - range.x, 1.0);
+  m = elev;
+  // the real slope (unexaggerated normal): 0 flat, 1 vertical
+  steep = 1.0 - nrm.y / length(nrm);
+  sun = lit;
   n = normalize(vec3(nrm.x * exag, nrm.y, nrm.z * exag));
   gl_Position = mvp * vec4(pos.x, pos.y * exag, pos.z, 1.0);
 }`;
 const FS = `
-precision mediump float;
-varying float h; varying vec3 n;
+precision highp float;
+uniform vec2 range; uniform vec3 sunDir;
+varying float m; varying float steep; varying float sun; varying vec3 n;
 void main() {
-  vec3 low = vec3(0.30, 0.42, 0.25), mid = vec3(0.55, 0.50, 0.38), high = vec3(0.92, 0.92, 0.90);
-  vec3 c = h < 0.6 ? mix(low, mid, h / 0.6) : mix(mid, high, (h - 0.6) / 0.4);
-  float d = max(dot(normalize(n), normalize(vec3(-0.5, 0.8, -0.4))), 0.0);
-  gl_FragColor = vec4(c * (0.25 + 0.8 * d), 1.0);
+  float t = clamp((m - range.x) / max(range.y - range.x, 1.0), 0.0, 1.0);
+  vec3 lowland = mix(vec3(0.24, 0.36, 0.18), vec3(0.36, 0.45, 0.24), t);
+  vec3 alpine = vec3(0.55, 0.52, 0.38);
+  vec3 rock = mix(vec3(0.42, 0.39, 0.36), vec3(0.55, 0.53, 0.50), t);
+  vec3 snow = vec3(0.93, 0.95, 0.98);
+  vec3 c = mix(lowland, alpine, smoothstep(1600.0, 2400.0, m));
+  // 1 - cos: 35 degrees is 0.18, 50 degrees 0.36
+  float r = max(smoothstep(0.14, 0.26, steep), 0.8 * smoothstep(3000.0, 3800.0, m));
+  c = mix(c, rock, r);
+  c = mix(c, snow, smoothstep(3800.0, 4300.0, m) * (1.0 - smoothstep(0.25, 0.40, steep)));
+  vec3 nn = normalize(n);
+  float diffuse = max(dot(nn, sunDir), 0.0) * sun;
+  float sky = 0.5 + 0.5 * nn.y;
+  gl_FragColor = vec4(c * (0.28 * sky + 0.95 * diffuse), 1.0);
 }`;
+
+// the sun: azimuth 315 degrees (north-west, as hillshades), 35 degrees up; scene
+// x is east, z is south, y is up
+const SUN_ALT = 35 * Math.PI / 180;
+const SUN_AZ = 315 * Math.PI / 180;
+const SUN = [Math.sin(SUN_AZ) * Math.cos(SUN_ALT), Math.sin(SUN_ALT), -Math.cos(SUN_AZ) * Math.cos(SUN_ALT)];
 
 function perspective(fovy, aspect, near, far) {
   const f = 1 / Math.tan(fovy / 2), nf = 1 / (near - far);
@@ -90,7 +115,7 @@ export class TerrainView {
     let lo = Infinity, hi = -Infinity;
     for (const v of heights) { if (v < lo) lo = v; if (v > hi) hi = v; }
     const at = (x, y) => heights[Math.min(h - 1, y * step) * w + Math.min(w - 1, x * step)];
-    const pos = new Float32Array(gw * gh * 3), nrm = new Float32Array(gw * gh * 3);
+    const pos = new Float32Array(gw * gh * 3), nrm = new Float32Array(gw * gh * 3), elev = new Float32Array(gw * gh);
     const s = 1 / extent;
     for (let y = 0; y < gh; y++) {
       for (let x = 0; x < gw; x++) {
@@ -101,6 +126,7 @@ export class TerrainView {
         const dx = (at(Math.min(gw - 1, x + 1), y) - at(Math.max(0, x - 1), y)) / (2 * step * cell);
         const dz = (at(x, Math.min(gh - 1, y + 1)) - at(x, Math.max(0, y - 1))) / (2 * step * cell);
         nrm[i] = -dx; nrm[i + 1] = 1; nrm[i + 2] = -dz;
+        elev[y * gw + x] = at(x, y);
       }
     }
     const idx = new Uint16Array((gw - 1) * (gh - 1) * 6);
@@ -115,15 +141,47 @@ export class TerrainView {
     const buf = (target, data) => { const b = gl.createBuffer(); gl.bindBuffer(target, b); gl.bufferData(target, data, gl.STATIC_DRAW); return b; };
     this.posBuf = buf(gl.ARRAY_BUFFER, pos);
     this.nrmBuf = buf(gl.ARRAY_BUFFER, nrm);
+    this.elevBuf = buf(gl.ARRAY_BUFFER, elev);
+    this.litBuf = gl.createBuffer();
+    this.grid = { elev, gw, gh, spacing: step * cell, hi };
     this.idxBuf = buf(gl.ELEMENT_ARRAY_BUFFER, idx);
     this.count = idx.length;
-    this.range = [(lo - (lo + hi) / 2) * s, (hi - (lo + hi) / 2) * s];
+    this.range = [lo, hi];
+    this.shadows();
     this.draw();
   }
 
   setExaggeration(e) {
     this.exag = e;
+    this.shadows();
     this.draw();
+  }
+
+  /// Which vertices the sun reaches at this exaggeration: a ray from each towards
+  /// the sun, one sample a step, is in shadow where the terrain rises above it.
+  shadows() {
+    if (!this.grid) return;
+    const { elev, gw, gh, spacing, hi } = this.grid;
+    const lit = new Float32Array(gw * gh);
+    const len = Math.hypot(SUN[0], SUN[2]);
+    const [sx, sz] = [SUN[0] / len, SUN[2] / len];
+    // metres the ray climbs per step, in unexaggerated heights
+    const rise = spacing * Math.tan(SUN_ALT) / this.exag;
+    for (let y = 0; y < gh; y++) {
+      for (let x = 0; x < gw; x++) {
+        let h = elev[y * gw + x], px = x, pz = y, shade = 1;
+        for (;;) {
+          px += sx; pz += sz; h += rise;
+          if (h > hi || px < 0 || pz < 0 || px > gw - 1 || pz > gh - 1) break;
+          if (elev[Math.round(pz) * gw + Math.round(px)] > h) { shade = 0; break; }
+        }
+        lit[y * gw + x] = shade;
+      }
+    }
+    const gl = this.gl;
+    gl.bindBuffer(gl.ARRAY_BUFFER, this.litBuf);
+    gl.bufferData(gl.ARRAY_BUFFER, lit, gl.STATIC_DRAW);
+    this.litShare = lit.reduce((a, v) => a + v, 0) / lit.length;
   }
 
   draw() {
@@ -140,11 +198,12 @@ export class TerrainView {
     gl.uniformMatrix4fv(loc('mvp'), false, new Float32Array(mvp));
     gl.uniform1f(loc('exag'), this.exag);
     gl.uniform2f(loc('range'), this.range[0], this.range[1]);
-    for (const [name, b] of [['pos', this.posBuf], ['nrm', this.nrmBuf]]) {
+    gl.uniform3f(loc('sunDir'), SUN[0], SUN[1], SUN[2]);
+    for (const [name, b, size] of [['pos', this.posBuf, 3], ['nrm', this.nrmBuf, 3], ['elev', this.elevBuf, 1], ['lit', this.litBuf, 1]]) {
       const a = gl.getAttribLocation(this.prog, name);
       gl.bindBuffer(gl.ARRAY_BUFFER, b);
       gl.enableVertexAttribArray(a);
-      gl.vertexAttribPointer(a, 3, gl.FLOAT, false, 0, 0);
+      gl.vertexAttribPointer(a, size, gl.FLOAT, false, 0, 0);
     }
     gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, this.idxBuf);
     gl.drawElements(gl.TRIANGLES, this.count, gl.UNSIGNED_SHORT, 0);

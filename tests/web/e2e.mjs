@@ -5,7 +5,12 @@
 // point and the range, waits for the job, checks that the 3D view rendered (non-blank
 // pixels), downloads the RAW16 terrain and checks its size, that it stays in the
 // range, that the ridge stands near the elevation it was drawn at and that the
-// terrain is higher under the drawn ridge than beside it. Saves a screenshot.
+// terrain is higher under the drawn ridge than beside it. Also: the exemplar grid
+// (four whole columns of equal thumbnails, a count of what is selected), the brush
+// width's box and keys, Clear undone, a sketch saved and loaded as strokes JSON, the
+// 3D view's colours (not all green) and light, a texture mask, the EXR terrain and EXR
+// tiles downloaded through the page, the realism figures shown when asked for, and a
+// reload that finds the drawing, the settings and the job. Saves a screenshot.
 //
 // usage: node tests/web/e2e.mjs [RIDGELINE_BINARY] [SHARED_DATA] [SCREENSHOT]
 import { chromium } from 'playwright-core';
@@ -31,7 +36,9 @@ function fail(msg) {
 const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'rl-web-'));
 const lib = path.join(dir, 'lib');
 fs.mkdirSync(lib);
-const dems = ['appalachians.png', 'rockies.png', 'highlands.png'];
+// five in the library (a grid row of four and one more), three used by the job
+const dems = ['appalachians.png', 'rockies.png', 'highlands.png', 'norway.png', 'alaska.png'];
+const UNUSED = ['norway', 'alaska'];
 for (const n of dems) fs.symlinkSync(path.resolve(data, 'dems', n), path.join(lib, n));
 fs.writeFileSync(path.join(lib, 'dems.csv'), 'file,cell_size_m,vertical_unit\n' + dems.map((n) => `${n},90,feet`).join('\n') + '\n');
 
@@ -56,7 +63,20 @@ try {
   const missing = [];
   page.on('response', (r) => { if (r.status() === 404) missing.push(r.url()); });
   await page.goto(url);
-  await page.waitForFunction(() => document.querySelectorAll('#exemplars img').length === 3, null, { timeout: 30000 });
+  await page.waitForFunction(() => [...document.querySelectorAll('#exemplars img')].filter((i) => i.complete && i.naturalWidth).length === 5, null, { timeout: 30000 });
+  // the grid: four columns inside its box, thumbnails of one size, a count
+  const grid = await page.evaluate(() => {
+    const box = document.getElementById('exemplars').getBoundingClientRect();
+    const imgs = [...document.querySelectorAll('#exemplars img')].map((i) => i.getBoundingClientRect());
+    return { box: [box.left, box.right], imgs: imgs.map((r) => [r.left, r.right, r.top, r.width, r.height]) };
+  });
+  const row = grid.imgs.filter((r) => Math.abs(r[2] - grid.imgs[0][2]) < 1);
+  if (row.length !== 4) fail(`the exemplar grid's first row has ${row.length} thumbnails, want 4`);
+  if (row.some((r) => r[0] < grid.box[0] - 0.5 || r[1] > grid.box[1] + 0.5)) fail(`a thumbnail is clipped: ${JSON.stringify(grid)}`);
+  if (grid.imgs.some((r) => Math.abs(r[3] - grid.imgs[0][3]) > 0.5 || Math.abs(r[4] - r[3]) > 0.5)) fail(`thumbnails of uneven sizes: ${JSON.stringify(grid.imgs)}`);
+  if ((await page.textContent('#exemplar-count')) !== '5 of 5 selected') fail(`count: ${await page.textContent('#exemplar-count')}`);
+  for (const n of UNUSED) await page.uncheck(`#exemplars input[value="${n}.png"]`);
+  if ((await page.textContent('#exemplar-count')) !== '3 of 5 selected') fail(`count after unchecking two: ${await page.textContent('#exemplar-count')}`);
   // engine sizes are valid in the size and tile fields; a width over the limit is
   // refused with a message instead of being ignored
   for (const [field, v] of [['#width', '1009'], ['#height', '505'], ['#tiles', '1009'], ['#tiles', '505']]) {
@@ -76,6 +96,18 @@ try {
   await page.dispatchEvent('#height', 'change');
   await page.selectOption('#patch', '32');
   await page.fill('#seed', '5');
+  // the brush width: typed exactly, stepped by [ and ], the slider follows
+  await page.fill('#brush-num', '8');
+  await page.dispatchEvent('#brush-num', 'change');
+  if ((await page.inputValue('#brush')) !== '8') fail(`brush box 8 gave slider ${await page.inputValue('#brush')}`);
+  await page.evaluate(() => document.activeElement?.blur());
+  await page.keyboard.press(']');
+  await page.keyboard.press('[');
+  await page.keyboard.press('[');
+  await page.keyboard.press('[');
+  if ((await page.inputValue('#brush-num')) !== '6') fail(`8, ], [, [, [ gave ${await page.inputValue('#brush-num')}`);
+  await page.fill('#brush-num', '4');
+  await page.dispatchEvent('#brush-num', 'change');
 
   // draw: the canvas shows SIZE cells on 512 CSS pixels
   const box = await page.locator('#sketch').boundingBox();
@@ -103,11 +135,51 @@ try {
   await page.fill('#range-hi', String(RANGE[1]));
   await page.click('button[data-pen=valley]');
   await stroke([[0.1 * SIZE, valleyY], [0.9 * SIZE, valleyY]]);
-  // undo and redo leave the same drawing
+  // drawn cells on the sketch canvas (not its grey)
+  const inked = () => page.evaluate(() => {
+    const c = document.getElementById('sketch');
+    const px = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+    let n = 0;
+    for (let i = 0; i < px.length; i += 4) if (Math.abs(px[i] - 128) + Math.abs(px[i + 1] - 128) + Math.abs(px[i + 2] - 128) > 30) n++;
+    return n;
+  });
+  const drawnCells = await inked();
+  if (drawnCells < 100) fail(`the strokes drew ${drawnCells} cells`);
+  // undo and redo leave the same drawing; Clear is undone
   await page.click('#undo');
   await page.click('#redo');
-  const strokes = await page.evaluate(() => document.querySelectorAll('#sketch').length);
-  if (strokes !== 1) fail('no sketch canvas');
+  if ((await inked()) !== drawnCells) fail('undo and redo changed the drawing');
+  await page.click('#clear');
+  if ((await inked()) !== 0) fail('Clear left strokes');
+  await page.click('#undo');
+  if ((await inked()) !== drawnCells) fail(`undoing Clear gave ${await inked()} drawn cells, want ${drawnCells}`);
+  // the sketch saved as strokes JSON and loaded back after a Clear
+  const [saved] = await Promise.all([page.waitForEvent('download'), page.click('#save-sketch')]);
+  const sketchFile = path.join(dir, 'sketch.json');
+  await saved.saveAs(sketchFile);
+  const sketchJson = JSON.parse(fs.readFileSync(sketchFile, 'utf8'));
+  if (sketchJson.width !== SIZE || sketchJson.strokes.map((s) => s.pen).join() !== 'ridge,valley') fail(`saved sketch: ${JSON.stringify(sketchJson).slice(0, 200)}`);
+  await page.click('#clear');
+  await page.setInputFiles('#load-sketch', sketchFile);
+  await page.waitForFunction((n) => {
+    const c = document.getElementById('sketch');
+    const px = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+    let k = 0;
+    for (let i = 0; i < px.length; i += 4) if (Math.abs(px[i] - 128) + Math.abs(px[i + 1] - 128) + Math.abs(px[i + 2] - 128) > 30) k++;
+    return k === n;
+  }, drawnCells, { timeout: 5000 }).catch(() => fail('the loaded sketch does not draw what was saved'));
+  // a file that is not a sketch is refused with its name
+  const junk = path.join(dir, 'junk.json');
+  fs.writeFileSync(junk, '{"width": 10, "height": 10, "strokes": [{"pen": "cliff", "width": 3, "points": [[1, 1]]}]}');
+  await page.setInputFiles('#load-sketch', junk);
+  await page.waitForSelector('#error:not([hidden])');
+  if (!(await page.textContent('#error')).includes('junk.json: stroke 1')) fail(`a bad sketch file: '${await page.textContent('#error')}'`);
+  if ((await inked()) !== drawnCells) fail('a refused sketch file changed the drawing');
+  // masks, realism figures and EXR tiles for this job
+  await page.check('#masks');
+  await page.check('#realism');
+  await page.fill('#tiles', '129');
+  await page.selectOption('#tile-format', 'exr');
 
   const posted = page.waitForRequest((r) => r.url().endsWith('/api/jobs') && r.method() === 'POST');
   await page.click('#submit');
@@ -117,6 +189,8 @@ try {
     fail(`the ridge was sent without its elevation at every point: ${JSON.stringify(ridgeSent).slice(0, 200)}`);
   if (valleySent.elevations) fail('the valley, drawn with the elevation unset, was sent with elevations');
   if (JSON.stringify(sent.elevation_range) !== JSON.stringify(RANGE)) fail(`elevation_range sent: ${JSON.stringify(sent.elevation_range)}`);
+  if (!sent.masks || !sent.realism || sent.tile_format !== 'exr' || sent.tiles !== 129) fail(`options sent: ${JSON.stringify({ ...sent, sketch: undefined })}`);
+  if (JSON.stringify(sent.exemplars) !== JSON.stringify(['appalachians.png', 'highlands.png', 'rockies.png'])) fail(`exemplars sent: ${JSON.stringify(sent.exemplars)}`);
   await page.waitForSelector('#job-state[data-state=done], #job-state[data-state=failed]', { timeout: 300000 });
   const state = await page.getAttribute('#job-state', 'data-state');
   if (state !== 'done') fail(`job ended ${state}: ${await page.textContent('#error')}`);
@@ -141,6 +215,53 @@ try {
   });
   console.log(`3D view: ${(100 * drawn.share).toFixed(1)}% of pixels drawn, ${drawn.colours} colours`);
   if (drawn.share < 0.1 || drawn.colours < 20) fail(`the 3D view looks blank: ${JSON.stringify(drawn)}`);
+  // colour by elevation and slope, lit by a sun: among the terrain's pixels, some are
+  // not green (rock, meadow, snow: this terrain reaches 3,600 m), and the light
+  // spreads their brightness
+  const tones = await page.evaluate(() => {
+    const c = document.getElementById('view3d');
+    const t = document.createElement('canvas');
+    t.width = c.width; t.height = c.height;
+    const ctx = t.getContext('2d');
+    ctx.drawImage(c, 0, 0);
+    const px = ctx.getImageData(0, 0, t.width, t.height).data;
+    let terrain = 0, notGreen = 0;
+    const lum = [];
+    for (let i = 0; i < px.length; i += 4) {
+      const [r, g, b] = [px[i], px[i + 1], px[i + 2]];
+      if (Math.abs(r - 20) + Math.abs(g - 23) + Math.abs(b - 28) <= 12) continue;
+      terrain++;
+      if (!(g > r + 8 && g > b + 8)) notGreen++;
+      lum.push(0.3 * r + 0.59 * g + 0.11 * b);
+    }
+    lum.sort((a, b) => a - b);
+    return { notGreen: notGreen / terrain, p10: lum[Math.floor(0.1 * lum.length)], p90: lum[Math.floor(0.9 * lum.length)] };
+  });
+  console.log(`3D view: ${(100 * tones.notGreen).toFixed(1)}% of the terrain not green, brightness p10 ${tones.p10.toFixed(0)} p90 ${tones.p90.toFixed(0)}`);
+  if (tones.notGreen < 0.05) fail(`the 3D view is all green: ${JSON.stringify(tones)}`);
+  if (tones.p90 - tones.p10 < 40) fail(`the 3D view's light does not read: ${JSON.stringify(tones)}`);
+  // the realism figures, asked for, are shown
+  await page.waitForSelector('#figures:not([hidden])', { timeout: 10000 }).catch(() => fail('the realism figures are not shown'));
+  const figureRows = await page.$$eval('#figures-table tr', (rows) => rows.map((r) => r.textContent));
+  if (!figureRows.some((r) => r.startsWith('landform distance0.'))) fail(`realism figures: ${figureRows.join(' | ')}`);
+  // a texture mask and the EXR terrain and tiles through the page's links
+  const fetchBytes = (name) => page.evaluate(async (n) => {
+    const a = document.querySelector(`#files a[download="${n}"]`);
+    if (!a) return null;
+    return [...new Uint8Array(await (await fetch(a.href)).arrayBuffer())];
+  }, name);
+  const [maskDl] = await Promise.all([page.waitForEvent('download'), page.click('#files a[download="masks/slope.png"]')]);
+  const maskFile = path.join(dir, 'slope.png');
+  await maskDl.saveAs(maskFile);
+  const mask = fs.readFileSync(maskFile);
+  if (mask.readUInt32BE(0) !== 0x89504e47 || mask.readUInt32BE(16) !== SIZE || mask.readUInt32BE(20) !== SIZE) fail('masks/slope.png is not a PNG the size of the terrain');
+  const exr = await fetchBytes('terrain.exr');
+  if (!exr || Buffer.from(exr).readUInt32LE(0) !== 20000630) fail('terrain.exr is missing or not OpenEXR');
+  const tileNames = await page.$$eval('#files a', (as) => as.map((a) => a.download).filter((n) => /_x\d+_y\d+\.exr$/.test(n)));
+  if (tileNames.length < 4) fail(`EXR tiles listed: ${tileNames.join(', ')}`);
+  const tile = await fetchBytes(tileNames[0]);
+  if (!tile || Buffer.from(tile).readUInt32LE(0) !== 20000630) fail(`${tileNames[0]} is not OpenEXR`);
+  console.log(`downloaded masks/slope.png, terrain.exr (${exr.length} bytes) and ${tileNames.length} EXR tiles`);
 
   // download the RAW16 terrain through the page's link
   const [download] = await Promise.all([page.waitForEvent('download'), page.click('#files a[download="terrain.r16"]')]);
@@ -173,6 +294,23 @@ try {
 
   fs.mkdirSync(path.dirname(shot), { recursive: true });
   await page.screenshot({ path: shot, fullPage: true });
+
+  // a reload finds the drawing, the settings and the job (and lists it)
+  const jobId = (await page.textContent('#job-state')).match(/job (\S+):/)[1];
+  await page.reload();
+  await page.waitForSelector('#job-state[data-state=done]', { timeout: 30000 }).catch(() => fail('after a reload the job is not shown'));
+  if (!(await page.textContent('#job-state')).includes(jobId)) fail(`after a reload: ${await page.textContent('#job-state')}, want job ${jobId}`);
+  await page.waitForSelector('#view3d[data-rendered=true]', { timeout: 60000 });
+  if (await page.isHidden('#result')) fail('after a reload the result is hidden');
+  if ((await inked()) !== drawnCells) fail(`after a reload the sketch has ${await inked()} drawn cells, want ${drawnCells}`);
+  if ((await page.inputValue('#width')) !== String(SIZE) || (await page.inputValue('#tile-format')) !== 'exr' || !(await page.isChecked('#masks'))) fail('after a reload the settings are lost');
+  await page.waitForFunction(() => document.querySelectorAll('#exemplars input').length === 5);
+  if ((await page.textContent('#exemplar-count')) !== '3 of 5 selected') fail(`after a reload: ${await page.textContent('#exemplar-count')}`);
+  await page.waitForSelector(`#jobs li[data-id="${jobId}"]`, { timeout: 10000 }).catch(() => fail('the earlier job is not listed'));
+  console.log(`reload: the sketch (${drawnCells} cells), the settings and job ${jobId} are back`);
+  await page.uncheck('#masks');
+  await page.uncheck('#realism');
+  await page.fill('#tiles', '0');
 
   // a cancel the user asked for is shown as the job's state, not as an error
   await page.fill('#width', '2048');

@@ -10,7 +10,7 @@
 //!   (`solvers::hydrology`), each beside the sources' shares weighted by how much of
 //!   the output each supplied.
 
-use crate::solvers::hydrology::{drainage_shares, DrainageShares};
+use crate::solvers::hydrology::DrainageShares;
 use crate::stages::sketch::SketchFeatures;
 use ridgeline_terrain::grid::Heightfield;
 use ridgeline_terrain::FeatureKind;
@@ -86,30 +86,20 @@ pub fn elevation_range(h: &Heightfield) -> [f32; 2] {
     h.finite_range().map(|(lo, hi)| [lo, hi]).unwrap_or([0.0, 0.0])
 }
 
-/// Drainage of the terrain and of its sources, each source weighted by `weight(name)`
-/// (sources of weight 0 left out).
-pub fn drainage(
-    h: &Heightfield,
-    sources: &[(String, Heightfield)],
-    weight: impl Fn(&str) -> f64,
-) -> (DrainageShares, DrainageShares) {
-    let own = drainage_shares(h, SINK_DEPTH_M);
+/// The sources' drainage shares, weighted (sources of weight 0 left out).
+pub fn mix_drainage(parts: &[(DrainageShares, f64)]) -> DrainageShares {
     let mut mix = DrainageShares::default();
     let mut total = 0.0;
-    for (name, s) in sources {
-        let w = weight(name);
-        if w > 0.0 {
-            let d = drainage_shares(s, SINK_DEPTH_M);
-            mix.sink_share += w * d.sink_share;
-            mix.border_share += w * d.border_share;
-            total += w;
-        }
+    for (d, w) in parts.iter().filter(|p| p.1 > 0.0) {
+        mix.sink_share += w * d.sink_share;
+        mix.border_share += w * d.border_share;
+        total += w;
     }
     if total > 0.0 {
         mix.sink_share /= total;
         mix.border_share /= total;
     }
-    (own, mix)
+    mix
 }
 
 #[cfg(test)]

@@ -29,6 +29,7 @@
 pub mod form;
 pub mod landforms;
 pub mod quality;
+pub mod source_figures;
 pub mod spectrum;
 
 use crate::evaluation::quality::{adherence, seam_score, SeamScore};
@@ -36,7 +37,9 @@ use crate::stages::sketch::SketchFeatures;
 use landforms::Landforms;
 use ridgeline_terrain::grid::Heightfield;
 use ridgeline_terrain::PerKind;
+pub use source_figures::SourceFigures;
 use std::collections::BTreeMap;
+use std::sync::Arc;
 
 /// Placements whose centres are within this many patches count as "nearby" for
 /// repetition.
@@ -102,8 +105,9 @@ pub struct Inputs<'a> {
     pub cell_m: f32,
     pub sketch: Option<&'a SketchFeatures>,
     pub patch: usize,
-    /// The library's exemplars at the output's cell size, by name.
-    pub sources: &'a [(String, Heightfield)],
+    /// The figures of the library's exemplars at the output's cell size, by name
+    /// ([`source_figures::of_sources`], or [`source_figures::of_heights`]).
+    pub sources: &'a [(String, Arc<SourceFigures>)],
     pub provenance: Option<&'a Provenance>,
 }
 
@@ -121,29 +125,35 @@ pub fn evaluate(i: &Inputs) -> Evaluation {
     }
     e.source_weights = weights(i.sources, i.provenance);
     let weighted = |name: &String| e.source_weights.get(name).copied().unwrap_or(0.0);
-    e.landforms = Landforms::of(&landforms::classify(i.terrain, i.cell_m));
-    let src_landforms: Vec<(Landforms, f64)> = i
-        .sources
-        .iter()
-        .filter(|(n, _)| weighted(n) > 0.0)
-        .map(|(n, h)| (Landforms::of(&landforms::classify(h, i.cell_m)), weighted(n)))
-        .collect();
-    e.source_landforms = Landforms::mix(&src_landforms);
-    e.elevation_range = form::elevation_range(i.terrain);
-    let used: Vec<[f32; 2]> =
-        i.sources.iter().filter(|(n, _)| weighted(n) > 0.0).map(|(_, h)| form::elevation_range(h)).collect();
-    e.source_elevation_range =
-        [used.iter().map(|r| r[0]).fold(f32::INFINITY, f32::min), used.iter().map(|r| r[1]).fold(f32::NEG_INFINITY, f32::max)];
-    e.sink_depth_m = form::SINK_DEPTH_M;
-    (e.drainage, e.source_drainage) = form::drainage(i.terrain, i.sources, |n| e.source_weights.get(n).copied().unwrap_or(0.0));
+    // the sources that supplied the output, with their weights
+    let used: Vec<(&SourceFigures, f64)> =
+        i.sources.iter().filter(|(n, _)| weighted(n) > 0.0).map(|(n, f)| (&**f, weighted(n))).collect();
+    // the terrain's own figures: the drainage (a priority flood) and the seams, each
+    // sequential, beside the landforms and the spectrum (parallel over rows, tiles)
+    let provenance = i.provenance.filter(|p| p.cells.len() == i.terrain.data.len());
+    let ((drainage, seams), (classes, own)) = rayon::join(
+        || {
+            let seams = provenance.map(|p| (seam_score(i.terrain, &p.cells), repetition(p, i.patch)));
+            (crate::solvers::hydrology::drainage_shares(i.terrain, form::SINK_DEPTH_M), seams)
+        },
+        || (landforms::classify(i.terrain, i.cell_m), spectrum::spectrum(i.terrain)),
+    );
+    if let Some((s, r)) = seams {
+        e.seams = Some(s);
+        e.repetition = Some(r);
+    }
+    e.landforms = Landforms::of(&classes);
+    e.source_landforms = Landforms::mix(&used.iter().map(|(f, w)| (f.landforms, *w)).collect::<Vec<_>>());
     e.landform_distance = e.landforms.distance(&e.source_landforms);
-    let own = spectrum::spectrum(i.terrain);
-    let src: Vec<(spectrum::Spectrum, f64)> = i
-        .sources
-        .iter()
-        .filter(|(n, _)| weighted(n) > 0.0)
-        .filter_map(|(n, h)| spectrum::spectrum(h).map(|s| (s, weighted(n))))
-        .collect();
+    e.elevation_range = form::elevation_range(i.terrain);
+    e.source_elevation_range = [
+        used.iter().map(|(f, _)| f.elevation_range[0]).fold(f32::INFINITY, f32::min),
+        used.iter().map(|(f, _)| f.elevation_range[1]).fold(f32::NEG_INFINITY, f32::max),
+    ];
+    e.sink_depth_m = form::SINK_DEPTH_M;
+    e.drainage = drainage;
+    e.source_drainage = form::mix_drainage(&used.iter().map(|(f, w)| (f.drainage, *w)).collect::<Vec<_>>());
+    let src: Vec<(spectrum::Spectrum, f64)> = used.iter().filter_map(|(f, w)| f.spectrum.clone().map(|s| (s, *w))).collect();
     let src = spectrum::Spectrum::mix(&src);
     e.spectral_slope = own.as_ref().map(|s| s.slope());
     e.source_spectral_slope = src.as_ref().map(|s| s.slope());
@@ -151,17 +161,11 @@ pub fn evaluate(i: &Inputs) -> Evaluation {
         e.spectral_slope_difference = Some(a.slope() - b.slope());
         e.roughness_ratio = (b.roughness() > 0.0).then(|| a.roughness() / b.roughness());
     }
-    if let Some(p) = i.provenance {
-        if p.cells.len() == i.terrain.data.len() {
-            e.seams = Some(seam_score(i.terrain, &p.cells));
-            e.repetition = Some(repetition(p, i.patch));
-        }
-    }
     e
 }
 
 /// Each source's share of the placed cells; equal shares without a provenance.
-fn weights(sources: &[(String, Heightfield)], prov: Option<&Provenance>) -> BTreeMap<String, f64> {
+fn weights(sources: &[(String, Arc<SourceFigures>)], prov: Option<&Provenance>) -> BTreeMap<String, f64> {
     let mut w: BTreeMap<String, f64> = BTreeMap::new();
     if let Some(p) = prov {
         let mut per_placement = vec![0u64; p.placements.len()];

@@ -19,7 +19,7 @@ pub const TILE: usize = 128;
 const BINS: usize = TILE / 2;
 
 /// Radially averaged power per integer frequency bin (cycles per tile), 1..TILE/2.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Spectrum {
     pub power: Vec<f64>,
     pub tiles: usize,
@@ -163,7 +163,7 @@ impl Spectrum {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use ridgeline_terrain::grid::Grid;
 

@@ -39,7 +39,7 @@ fn grid_provenance(w: usize, patch: usize, name: &str, src: impl Fn(usize) -> (u
 }
 
 fn eval(terrain: &Heightfield, source: &Heightfield, prov: Option<&Provenance>) -> Evaluation {
-    let sources = vec![("dem.png".to_string(), source.clone())];
+    let sources = source_figures::of_heights(&[("dem.png".to_string(), source.clone())], 90.0);
     evaluate(&Inputs { terrain, cell_m: 90.0, sketch: None, patch: 64, sources: &sources, provenance: prov })
 }
 

@@ -228,16 +228,24 @@ pub struct Staged {
     transaction: ridgeline_terrain::staging::Transaction,
 }
 
-/// The realism figures of a finished job against `sources`, the exemplars that
-/// supplied it at the output cell size (`evaluation`).
-pub fn evaluate(out: &SynthOutput, report: &SynthReport, sources: &[(String, Heightfield)]) -> crate::evaluation::Evaluation {
+/// The realism figures of a finished job against the exemplars that supplied it, at
+/// the output cell size (`evaluation`; their figures kept in `cache_dir`).
+pub fn evaluate(
+    out: &SynthOutput,
+    report: &SynthReport,
+    sources: &[std::sync::Arc<dyn ridgeline_terrain::ExemplarSource>],
+    cache_dir: Option<&Path>,
+) -> Result<crate::evaluation::Evaluation> {
     let provenance = crate::evaluation::provenance_of(&out.canvas, &report.exemplars);
-    crate::evaluation::evaluate(&crate::evaluation::Inputs {
+    let cell_m = report.cell_size_m.unwrap_or(90.0);
+    let sources =
+        crate::evaluation::source_figures::of_sources(sources, report.cell_size_m, cell_m, Some(&provenance), cache_dir)?;
+    Ok(crate::evaluation::evaluate(&crate::evaluation::Inputs {
         terrain: out.terrain(),
-        cell_m: report.cell_size_m.unwrap_or(90.0),
+        cell_m,
         sketch: Some(&out.sketch),
         patch: report.patch,
-        sources,
+        sources: &sources,
         provenance: Some(&provenance),
-    })
+    }))
 }

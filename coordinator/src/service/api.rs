@@ -9,7 +9,7 @@
 //! | `GET /api/jobs/{id}` | status with per-stage progress |
 //! | `GET /api/jobs/{id}/events` | server-sent events: `status` and `placed` |
 //! | `POST /api/jobs/{id}/cancel` | cancel (queued or running) |
-//! | `GET /api/jobs/{id}/files/{name}` | download one output file |
+//! | `GET /api/jobs/{id}/files/{name}` | download one output file (`masks/{name}` for a mask) |
 //! | `GET /api/jobs/{id}/heights?max=N` | the terrain at most N samples a side, f32 LE |
 //!
 //! Every error is JSON `{"error": "..."}` with a sentence a person understands.
@@ -65,6 +65,13 @@ pub struct JobRequest {
     /// Also cut the terrain into tiles of this many samples a side.
     #[serde(default)]
     pub tiles: Option<usize>,
+    /// The tiles' format: `tif` (float, the default), `exr`, `png` (16-bit with
+    /// sidecars) or `r16`.
+    #[serde(default)]
+    pub tile_format: Option<String>,
+    /// Also write the texture masks (`synth --masks`) into the job's `masks/`.
+    #[serde(default)]
+    pub masks: bool,
     /// Also write the debug views (`synth --debug-dir`): sketch lines, the terrain
     /// before hole filling, provenance, landforms beside the main source's, seams.
     #[serde(default)]
@@ -77,6 +84,11 @@ pub struct JobRequest {
     /// none.
     #[serde(default)]
     pub erode: Option<f32>,
+    /// Also compute the realism figures into `report.json` (`evaluation`: landforms,
+    /// spectrum, drainage and seams against the sources; default off: the job's own
+    /// figures — timings, adherence — are always there).
+    #[serde(default)]
+    pub realism: bool,
 }
 
 fn default_patch() -> usize {
@@ -161,6 +173,13 @@ fn parse_request(body: &[u8], max_side: u32, decoding: &std::sync::Mutex<()>) ->
             return Err(bad(format!("elevation_range [{lo}, {hi}]: give two finite heights, the lower first")));
         }
     }
+    if let Some(f) = &req.tile_format {
+        if !TERRAIN_FILES.iter().any(|(format, _)| format == f) {
+            let formats: Vec<&str> = TERRAIN_FILES.iter().map(|f| f.0).collect();
+            let quoted: String = f.chars().take(16).collect();
+            return Err(bad(format!("tile_format '{quoted}': give one of {}", formats.join(", "))));
+        }
+    }
     if let Some(s) = req.erode {
         let max = crate::stages::erosion::MAX_STRENGTH;
         if !(s.is_finite() && s > 0.0 && s <= max) {
@@ -170,6 +189,10 @@ fn parse_request(body: &[u8], max_side: u32, decoding: &std::sync::Mutex<()>) ->
     Ok((req, sketch))
 }
 
+/// A job's terrain files by format: `terrain.tif` first (the 3D view reads it).
+const TERRAIN_FILES: [(&str, &str); 4] =
+    [("tif", "terrain.tif"), ("exr", "terrain.exr"), ("png", "terrain16.png"), ("r16", "terrain.r16")];
+
 /// The session a job request asks for, its outputs in `dir`.
 fn job_builder(
     req: &JobRequest,
@@ -178,6 +201,11 @@ fn job_builder(
     dir: &std::path::Path,
     cancel: crate::progress::CancelToken,
 ) -> crate::session::SessionBuilder {
+    // the tiles are cut beside the terrain in its format: the file of the tiles'
+    // format is the terrain, the others its copies
+    let tile_format = req.tile_format.as_deref().unwrap_or("tif");
+    let (tiled, copies): (Vec<&(&str, &str)>, Vec<_>) = TERRAIN_FILES.iter().partition(|(format, _)| *format == tile_format);
+    let terrain = dir.join(tiled.first().map(|f| f.1).unwrap_or("terrain.tif"));
     let mut b = Session::builder()
         .sketch(sketch)
         .exemplars(Exemplars::Library { path: cfg.library.clone(), only: req.exemplars.clone() })
@@ -189,16 +217,17 @@ fn job_builder(
         .max_side(cfg.max_side)
         .cancel(cancel)
         .outputs(OutputFiles {
-            terrain: dir.join("terrain.tif"),
-            also: vec![dir.join("terrain.exr"), dir.join("terrain16.png"), dir.join("terrain.r16")],
+            terrain,
+            also: copies.iter().map(|f| dir.join(f.1)).collect(),
             tiles: req.tiles,
             preview: Some(dir.join("preview.png")),
             report: Some(dir.join("report.json")),
             debug_dir: req.debug.then(|| dir.to_path_buf()),
             georef: None,
-            masks: None,
+            masks: req.masks.then(|| crate::outputs::masks::MaskSettings::new(dir.join("masks"))),
         })
         .keep_features_only(req.debug)
+        .realism_figures(req.realism)
         .elevation_range(req.elevation_range)
         .erode(req.erode);
     if let (Some(w), Some(h)) = (req.width, req.height) {
@@ -322,7 +351,7 @@ pub async fn file(State(st): State<Arc<AppState>>, Path((id, name)): Path<(Strin
     Ok((
         [
             (header::CONTENT_TYPE, content_type(&name).to_string()),
-            (header::CONTENT_DISPOSITION, format!("attachment; filename=\"{id}-{name}\"")),
+            (header::CONTENT_DISPOSITION, format!("attachment; filename=\"{id}-{}\"", name.replace('/', "-"))),
         ],
         bytes,
     )

@@ -409,17 +409,30 @@ fn is_job_folder_name(name: &str) -> bool {
     n.len() == 6 && n.bytes().all(|b| b.is_ascii_digit()) && !h.is_empty() && h.bytes().all(|b| b.is_ascii_hexdigit())
 }
 
-/// The plain files of a folder, sorted.
+/// The plain files of a job's folder and of its folders one level down (`masks/`),
+/// as `name` and `folder/name`, sorted.
 fn list_files(dir: &std::path::Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir)
-        .map(|rd| {
-            rd.filter_map(|e| e.ok())
-                .filter(|e| e.file_type().map(|t| t.is_file()).unwrap_or(false))
-                .filter_map(|e| e.file_name().to_str().map(str::to_string))
-                .filter(|n| !n.starts_with('.'))
-                .collect()
-        })
-        .unwrap_or_default();
+    let mut v = Vec::new();
+    let Ok(rd) = std::fs::read_dir(dir) else { return v };
+    for e in rd.filter_map(|e| e.ok()) {
+        let Some(name) = e.file_name().to_str().map(str::to_string) else { continue };
+        let Ok(kind) = e.file_type() else { continue };
+        if name.starts_with('.') {
+            continue;
+        }
+        if kind.is_file() {
+            v.push(name);
+        } else if kind.is_dir() {
+            let inner = std::fs::read_dir(e.path()).into_iter().flatten().filter_map(|e| e.ok());
+            v.extend(
+                inner
+                    .filter(|e| e.file_type().map(|t| t.is_file()).unwrap_or(false))
+                    .filter_map(|e| e.file_name().to_str().map(str::to_string))
+                    .filter(|n| !n.starts_with('.'))
+                    .map(|n| format!("{name}/{n}")),
+            );
+        }
+    }
     v.sort();
     v
 }

@@ -125,7 +125,7 @@ pub fn router(state: Arc<AppState>) -> Router {
         .route("/api/jobs/{id}", get(api::job_status))
         .route("/api/jobs/{id}/events", get(api::events))
         .route("/api/jobs/{id}/cancel", post(api::cancel))
-        .route("/api/jobs/{id}/files/{name}", get(api::file))
+        .route("/api/jobs/{id}/files/{*name}", get(api::file))
         .route("/api/jobs/{id}/heights", get(api::heights))
         .layer(axum::middleware::from_fn_with_state(state.clone(), require_token))
         .layer(DefaultBodyLimit::max(state.config.max_body))

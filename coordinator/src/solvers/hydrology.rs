@@ -244,7 +244,7 @@ impl Flooded {
 /// What the drainage of a terrain looks like: the share of cells lying more than
 /// `sink_depth_m` below the depression-filled surface, and the share whose water
 /// reaches the border without entering a depression deeper than that.
-#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct DrainageShares {
     pub sink_share: f64,
     pub border_share: f64,
