@@ -35,7 +35,7 @@ export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
 bash scripts/check-deploy.sh
 cargo fmt --all -- --check
 # no import circles between the module files of any crate
-python3 scripts/module-cycles.py terrain/src proto/src ops/src worker/src coordinator/src
+python3 scripts/module-cycles.py terrain/src proto/src ops/src worker/src coordinator/src python/src
 cargo clippy --workspace --all-targets --release -- -D warnings
 cargo test --workspace --release
 # the library without the command line's dependencies (what an embedding tool builds):
@@ -90,4 +90,32 @@ if "$PY" -c "import OpenEXR, numpy, tifffile, rasterio" >/dev/null 2>&1 && [ -d 
   "$PY" tests/python/geotiff_readback.py "$out/geo_tiles.json" 32633 500000 4649776
 else
   echo "SKIPPED: the Python readback (needs $DATA and $READERS)" >&2
+fi
+# the Python package (python/, PyO3 through maturin): one abi3 wheel (CPython 3.9 and
+# later) of the library without its default features, built from the repository in
+# the shared target/ and release profile (dependencies whose features match the test
+# build's are reused; the rest, the library among them, build once for the wheel's
+# features and are then cached), installed into target/pyenv and tested with pytest
+# (python/tests: the command line's terrain from an array, a PNG and strokes,
+# determinism, progress, cancellation, Ctrl-C, bad inputs)
+machinery=$(cargo tree -p ridgeline-python -e normal --prefix none | grep -E '^(wgpu|tonic|prost|tokio|axum|prometheus-client|clap|indicatif|ureq) ' | sort -u || true)
+if [ -n "$machinery" ]; then
+  echo "error: the Python package pulls in: $machinery" >&2
+  exit 1
+fi
+PYPKG="maturin>=1.9.4,<2 pytest pillow"
+if [ -x "$PY" ] && { [ ! -x target/pyenv/bin/maturin ] || ! "$PY" -c "import pytest, PIL" >/dev/null 2>&1; }; then
+  "$PY" -m pip install -q --disable-pip-version-check $PYPKG ||
+    { [ "${CI:-}" = true ] && { echo "error: the Python package's tools ($PYPKG from PyPI) could not be installed" >&2; exit 1; }; }
+fi
+if [ -x target/pyenv/bin/maturin ] && "$PY" -c "import numpy, tifffile, pytest, PIL" >/dev/null 2>&1; then
+  rm -f target/wheels/ridgeline-*.whl
+  target/pyenv/bin/maturin build --release -m python/Cargo.toml --out target/wheels --interpreter "$PY"
+  "$PY" -m pip install -q --disable-pip-version-check --force-reinstall --no-deps target/wheels/ridgeline-*.whl
+  "$PY" -m pytest -q -p no:cacheprovider python/tests
+elif [ "${CI:-}" = true ]; then
+  echo "error: the Python package's test needs target/pyenv with maturin, pytest, pillow, numpy and tifffile" >&2
+  exit 1
+else
+  echo "SKIPPED: the Python package (needs target/pyenv with $PYPKG numpy tifffile)" >&2
 fi
