@@ -391,7 +391,13 @@ fn evaluate(a: EvaluateArgs) -> Result<()> {
             bail!("--cell-size {c}: give a positive number of metres");
         }
     }
-    let sources = evaluation::source_figures::of_sources(&library, cell, cell.unwrap_or(90.0), provenance.as_ref(), None)?;
+    let sources = evaluation::source_figures::of_sources(
+        &library,
+        cell,
+        cell.unwrap_or(90.0),
+        &|n| evaluation::supplied(provenance.as_ref(), n),
+        None,
+    )?;
     if sources.is_empty() {
         bail!("{}: no exemplar of the library supplied this terrain (is it the job's library?)", a.exemplars.display());
     }

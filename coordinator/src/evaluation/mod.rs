@@ -63,6 +63,12 @@ pub struct Provenance {
     pub placements: Vec<PlacedPatch>,
 }
 
+/// Whether exemplar `name` supplied a placement of `p` (every exemplar did, without
+/// a provenance).
+pub fn supplied(p: Option<&Provenance>, name: &str) -> bool {
+    p.is_none_or(|p| p.placements.iter().any(|pl| pl.exemplar == name))
+}
+
 /// Every figure of an evaluation (see the module header).
 #[derive(Debug, Clone, Default, serde::Serialize)]
 pub struct Evaluation {
@@ -273,11 +279,10 @@ pub fn load_sources(
     cell: Option<f32>,
     wanted: Option<&Provenance>,
 ) -> Result<Vec<(String, Heightfield)>, ridgeline_terrain::TerrainError> {
-    let used = |n: &String| wanted.is_none_or(|p| p.placements.iter().any(|pl| &pl.exemplar == n));
     let mut out = Vec::new();
     for s in sources {
         let name = s.name();
-        if used(&name) {
+        if supplied(wanted, &name) {
             out.push((name, s.heights(cell, ridgeline_terrain::io::DEFAULT_MAX_SIDE)?));
         }
     }

@@ -9,9 +9,9 @@
 //! values computed (JSON round-trips f32 and f64 exactly), so an evaluation gives the
 //! same figures with a cold cache or a warm one.
 
+use super::form;
 use super::landforms::{self, Landforms};
 use super::spectrum::{self, Spectrum};
-use super::{form, Provenance};
 use crate::solvers::hydrology::{drainage_shares, DrainageShares};
 use ridgeline_terrain::exemplar_source::digest;
 use ridgeline_terrain::grid::Heightfield;
@@ -55,23 +55,22 @@ pub fn of_heights(sources: &[(String, Heightfield)], cell_m: f32) -> Figures {
     sources.iter().map(|(n, h)| (n.clone(), Arc::new(SourceFigures::of(h, cell_m)))).collect()
 }
 
-/// The figures of the `sources` that supplied the output (all of them without a
-/// provenance), at the output cell size `cell` (`cell_m` metres: the geomorphons'
-/// lookup), from this process's memory, else from `cache_dir`, else computed (and
-/// kept in both). A source whose heights cannot be read is an error, as in
-/// [`super::load_sources`].
+/// The figures of the `sources` whose name `wanted` takes (those that supplied the
+/// output: `Provenance::supplied`), at the output cell size `cell` (`cell_m` metres:
+/// the geomorphons' lookup), from this process's memory, else from `cache_dir`, else
+/// computed (and kept in both). A source whose heights cannot be read is an error, as
+/// in [`super::load_sources`].
 pub fn of_sources(
     sources: &[Arc<dyn ExemplarSource>],
     cell: Option<f32>,
     cell_m: f32,
-    wanted: Option<&Provenance>,
+    wanted: &dyn Fn(&str) -> bool,
     cache_dir: Option<&Path>,
 ) -> Result<Figures, TerrainError> {
-    let used = |n: &String| wanted.is_none_or(|p| p.placements.iter().any(|pl| &pl.exemplar == n));
     let mut out = Vec::new();
     for s in sources {
         let name = s.name();
-        if !used(&name) {
+        if !wanted(&name) {
             continue;
         }
         let key = digest(&[s.identity(cell)?.as_bytes(), format!("{FIGURES_VERSION}:{:08x}", cell_m.to_bits()).as_bytes()]);
@@ -138,15 +137,32 @@ fn write_entry(p: &Path, f: &SourceFigures) {
 mod tests {
     use super::*;
     use ridgeline_terrain::exemplar_source::InMemory;
+    use ridgeline_terrain::grid::Grid;
+
+    /// Rough terrain: sums of sines of a seeded phase, with a little noise.
+    fn terrain(w: usize, seed: u64) -> Heightfield {
+        let mut s = seed;
+        let data = (0..w * w)
+            .map(|i| {
+                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                let (x, y) = ((i % w) as f32, (i / w) as f32);
+                let ph = seed as f32;
+                300.0 * (x * 0.03 + ph).sin() * (y * 0.021).cos()
+                    + 40.0 * (x * 0.2 - y * 0.13 + ph).sin()
+                    + (s >> 40) as f32 * 1e-5
+            })
+            .collect();
+        Grid::from_vec(w, w, data)
+    }
 
     #[test]
     fn figures_read_back_from_the_cache_are_the_figures_computed() {
-        let h = super::super::spectrum::tests::fractal(256, 2.4, 7);
+        let h = terrain(256, 7);
         let computed = SourceFigures::of(&h, 90.0);
         let dir = std::env::temp_dir().join(format!("ridgeline-figures-test-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         let src: Arc<dyn ExemplarSource> = Arc::new(InMemory::new("fractal", h.clone(), Some(90.0)));
-        let first = of_sources(std::slice::from_ref(&src), Some(90.0), 90.0, None, Some(&dir)).unwrap();
+        let first = of_sources(std::slice::from_ref(&src), Some(90.0), 90.0, &|_| true, Some(&dir)).unwrap();
         assert_eq!(*first[0].1, computed);
         let files: Vec<_> = std::fs::read_dir(dir.join(FIGURES_VERSION)).unwrap().collect();
         assert_eq!(files.len(), 1, "one entry on disk");
@@ -156,9 +172,8 @@ mod tests {
         std::fs::write(&entry, b"{\"landforms\": 3").unwrap();
         assert_eq!(read_entry(&entry), None);
         // other heights under another name: another key
-        let other: Arc<dyn ExemplarSource> =
-            Arc::new(InMemory::new("fractal", super::super::spectrum::tests::fractal(256, 2.0, 8), Some(90.0)));
-        let second = of_sources(&[other], Some(90.0), 90.0, None, Some(&dir)).unwrap();
+        let other: Arc<dyn ExemplarSource> = Arc::new(InMemory::new("fractal", terrain(256, 8), Some(90.0)));
+        let second = of_sources(&[other], Some(90.0), 90.0, &|_| true, Some(&dir)).unwrap();
         assert_ne!(*second[0].1, computed);
         let _ = std::fs::remove_dir_all(&dir);
     }

@@ -163,7 +163,7 @@ impl Spectrum {
 }
 
 #[cfg(test)]
-pub(crate) mod tests {
+mod tests {
     use super::*;
     use ridgeline_terrain::grid::Grid;
 

@@ -238,8 +238,13 @@ pub fn evaluate(
 ) -> Result<crate::evaluation::Evaluation> {
     let provenance = crate::evaluation::provenance_of(&out.canvas, &report.exemplars);
     let cell_m = report.cell_size_m.unwrap_or(90.0);
-    let sources =
-        crate::evaluation::source_figures::of_sources(sources, report.cell_size_m, cell_m, Some(&provenance), cache_dir)?;
+    let sources = crate::evaluation::source_figures::of_sources(
+        sources,
+        report.cell_size_m,
+        cell_m,
+        &|n| crate::evaluation::supplied(Some(&provenance), n),
+        cache_dir,
+    )?;
     Ok(crate::evaluation::evaluate(&crate::evaluation::Inputs {
         terrain: out.terrain(),
         cell_m,
