@@ -198,27 +198,10 @@ try {
   const placed = await page.textContent('#placed-count');
   if (!/\(\d+\)/.test(placed || '')) fail(`no placed patches were shown: '${placed}'`);
 
-  // the 3D view: share of pixels that are not the clear colour
-  const drawn = await page.evaluate(() => {
-    const c = document.getElementById('view3d');
-    const t = document.createElement('canvas');
-    t.width = c.width; t.height = c.height;
-    const ctx = t.getContext('2d');
-    ctx.drawImage(c, 0, 0);
-    const px = ctx.getImageData(0, 0, t.width, t.height).data;
-    let lit = 0, distinct = new Set();
-    for (let i = 0; i < px.length; i += 4) {
-      if (Math.abs(px[i] - 20) + Math.abs(px[i + 1] - 23) + Math.abs(px[i + 2] - 28) > 12) lit++;
-      distinct.add((px[i] >> 3) * 1024 + (px[i + 1] >> 3) * 32 + (px[i + 2] >> 3));
-    }
-    return { share: lit / (px.length / 4), colours: distinct.size };
-  });
-  console.log(`3D view: ${(100 * drawn.share).toFixed(1)}% of pixels drawn, ${drawn.colours} colours`);
-  if (drawn.share < 0.1 || drawn.colours < 20) fail(`the 3D view looks blank: ${JSON.stringify(drawn)}`);
-  // colour by elevation and slope, lit by a sun: among the terrain's pixels, some are
-  // not green (rock, meadow, snow: this terrain reaches 3,600 m), and the light
-  // spreads their brightness
-  const tones = await page.evaluate(() => {
+  // the 3D view: the share of pixels that are not the clear colour, and among the
+  // terrain's, colour by elevation and slope lit by a sun: some are not green (rock,
+  // meadow, snow: this terrain reaches 3,600 m) and the light spreads their brightness
+  const [drawn, tones] = await page.evaluate(() => {
     const c = document.getElementById('view3d');
     const t = document.createElement('canvas');
     t.width = c.width; t.height = c.height;
@@ -226,17 +209,21 @@ try {
     ctx.drawImage(c, 0, 0);
     const px = ctx.getImageData(0, 0, t.width, t.height).data;
     let terrain = 0, notGreen = 0;
-    const lum = [];
+    const distinct = new Set(), lum = [];
     for (let i = 0; i < px.length; i += 4) {
       const [r, g, b] = [px[i], px[i + 1], px[i + 2]];
+      distinct.add((r >> 3) * 1024 + (g >> 3) * 32 + (b >> 3));
       if (Math.abs(r - 20) + Math.abs(g - 23) + Math.abs(b - 28) <= 12) continue;
       terrain++;
       if (!(g > r + 8 && g > b + 8)) notGreen++;
       lum.push(0.3 * r + 0.59 * g + 0.11 * b);
     }
-    lum.sort((a, b) => a - b);
-    return { notGreen: notGreen / terrain, p10: lum[Math.floor(0.1 * lum.length)], p90: lum[Math.floor(0.9 * lum.length)] };
+    lum.sort((x, y) => x - y);
+    return [{ share: terrain / (px.length / 4), colours: distinct.size },
+      { notGreen: notGreen / Math.max(terrain, 1), p10: lum[Math.floor(0.1 * lum.length)] || 0, p90: lum[Math.floor(0.9 * lum.length)] || 0 }];
   });
+  console.log(`3D view: ${(100 * drawn.share).toFixed(1)}% of pixels drawn, ${drawn.colours} colours`);
+  if (drawn.share < 0.1 || drawn.colours < 20) fail(`the 3D view looks blank: ${JSON.stringify(drawn)}`);
   console.log(`3D view: ${(100 * tones.notGreen).toFixed(1)}% of the terrain not green, brightness p10 ${tones.p10.toFixed(0)} p90 ${tones.p90.toFixed(0)}`);
   if (tones.notGreen < 0.05) fail(`the 3D view is all green: ${JSON.stringify(tones)}`);
   if (tones.p90 - tones.p10 < 40) fail(`the 3D view's light does not read: ${JSON.stringify(tones)}`);
