@@ -126,7 +126,7 @@ $('load-sketch').addEventListener('change', async (e) => {
   }
 });
 
-const SETTINGS = ['width', 'height', 'seed', 'patch', 'tiles', 'tile-format', 'range-lo', 'range-hi', 'masks', 'realism', 'debug'];
+const SETTINGS = ['width', 'height', 'seed', 'patch', 'tiles', 'tile-format', 'range-lo', 'range-hi', 'erode', 'masks', 'realism', 'debug'];
 function keep() {
   const settings = {};
   for (const id of SETTINGS) settings[id] = $(id).type === 'checkbox' ? $(id).checked : $(id).value;
@@ -417,6 +417,8 @@ $('submit').addEventListener('click', async () => {
   const [lo, hi] = [$('range-lo').value, $('range-hi').value];
   if ((lo === '') !== (hi === '')) { showError('give both the lowest and the highest elevation, or neither'); return; }
   if (lo !== '' && Number(hi) <= Number(lo)) { showError('the highest elevation must be above the lowest'); return; }
+  const erode = $('erode').value === '' ? 0 : Number($('erode').value);
+  if (!(erode >= 0 && erode <= 10)) { showError(`erosion ${$('erode').value}: give a strength from 0 (none) to 10`); return; }
   const body = {
     sketch: { strokes: pad.toJSON() },
     exemplars: chosen.length === checkboxes().length ? null : chosen,
@@ -428,6 +430,7 @@ $('submit').addEventListener('click', async () => {
     realism: $('realism').checked,
     debug: $('debug').checked,
     elevation_range: lo === '' ? null : [Number(lo), Number(hi)],
+    erode: erode > 0 ? erode : null,
   };
   $('submit').disabled = true;
   $('result').hidden = true;

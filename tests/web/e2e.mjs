@@ -180,6 +180,11 @@ try {
   await page.check('#realism');
   await page.fill('#tiles', '129');
   await page.selectOption('#tile-format', 'exr');
+  // erosion: a strength outside 0..10 is refused on the page; 2 is sent
+  await page.fill('#erode', '12');
+  await page.click('#submit');
+  if (!(await page.textContent('#error')).includes('erosion 12')) fail(`erosion 12 not refused: '${await page.textContent('#error')}'`);
+  await page.fill('#erode', '2');
 
   const posted = page.waitForRequest((r) => r.url().endsWith('/api/jobs') && r.method() === 'POST');
   await page.click('#submit');
@@ -189,7 +194,7 @@ try {
     fail(`the ridge was sent without its elevation at every point: ${JSON.stringify(ridgeSent).slice(0, 200)}`);
   if (valleySent.elevations) fail('the valley, drawn with the elevation unset, was sent with elevations');
   if (JSON.stringify(sent.elevation_range) !== JSON.stringify(RANGE)) fail(`elevation_range sent: ${JSON.stringify(sent.elevation_range)}`);
-  if (!sent.masks || !sent.realism || sent.tile_format !== 'exr' || sent.tiles !== 129) fail(`options sent: ${JSON.stringify({ ...sent, sketch: undefined })}`);
+  if (!sent.masks || !sent.realism || sent.tile_format !== 'exr' || sent.tiles !== 129 || sent.erode !== 2) fail(`options sent: ${JSON.stringify({ ...sent, sketch: undefined })}`);
   if (JSON.stringify(sent.exemplars) !== JSON.stringify(['appalachians.png', 'highlands.png', 'rockies.png'])) fail(`exemplars sent: ${JSON.stringify(sent.exemplars)}`);
   await page.waitForSelector('#job-state[data-state=done], #job-state[data-state=failed]', { timeout: 300000 });
   const state = await page.getAttribute('#job-state', 'data-state');
@@ -231,6 +236,12 @@ try {
   await page.waitForSelector('#figures:not([hidden])', { timeout: 10000 }).catch(() => fail('the realism figures are not shown'));
   const figureRows = await page.$$eval('#figures-table tr', (rows) => rows.map((r) => r.textContent));
   if (!figureRows.some((r) => r.startsWith('landform distance0.'))) fail(`realism figures: ${figureRows.join(' | ')}`);
+  // the erosion asked for ran
+  const erosion = await page.evaluate(async () => {
+    const a = document.querySelector('#files a[download="report.json"]');
+    return (await (await fetch(a.href)).json()).erosion;
+  });
+  if (!(erosion?.cells_lowered > 0)) fail(`the erosion asked for did not run: ${JSON.stringify(erosion)}`);
   // a texture mask and the EXR terrain and tiles through the page's links
   const fetchBytes = (name) => page.evaluate(async (n) => {
     const a = document.querySelector(`#files a[download="${n}"]`);
@@ -297,6 +308,7 @@ try {
   console.log(`reload: the sketch (${drawnCells} cells), the settings and job ${jobId} are back`);
   await page.uncheck('#masks');
   await page.uncheck('#realism');
+  await page.fill('#erode', '');
   await page.fill('#tiles', '0');
 
   // a cancel the user asked for is shown as the job's state, not as an error
