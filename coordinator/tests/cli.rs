@@ -72,6 +72,42 @@ fn missing_and_corrupt_inputs_are_named_and_nothing_is_clobbered() {
 }
 
 #[test]
+fn a_library_of_generators_alone_makes_a_terrain_and_the_same_twice() {
+    // no DEM at all: two fBm generators in a manifest (a first try needs no download)
+    let d = tmp("generated");
+    let sketch = small_sketch(&d);
+    let fbm = |name: &str, seed: u64, wave: u32, relief: u32| {
+        format!("[[generator]]\ngenerator = \"fbm\"\n[generator.params]\nname = \"{name}\"\nwidth = 384\nheight = 384\ncell_size_m = 90\nseed = {seed}\nwavelength_cells = {wave}\noctaves = 7\ngain = 0.5\nlacunarity = 2\nrelief_m = {relief}\nbase_m = 200\n")
+    };
+    let m = d.join("generated.toml");
+    std::fs::write(&m, fbm("rolling", 1, 96, 900) + &fbm("steep", 2, 48, 2400)).unwrap();
+    let run = |out: &str| {
+        let o = bin()
+            .args(["synth", "--patch-size", "32", "--seed", "3", "--sketch"])
+            .arg(&sketch)
+            .arg("--exemplars")
+            .arg(&m)
+            .arg("--out")
+            .arg(d.join(out))
+            .arg("--report")
+            .arg(d.join(format!("{out}.json")))
+            .arg("--cache-dir")
+            .arg(d.join("cache"))
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        std::fs::read(d.join(out)).unwrap()
+    };
+    assert_eq!(run("a.tif"), run("b.tif"), "the same recipe, seed and sketch give the same bytes");
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("a.tif.json")).unwrap()).unwrap();
+    let range = &report["evaluation"]["elevation_range"];
+    let (lo, hi) = (range[0].as_f64().unwrap(), range[1].as_f64().unwrap());
+    assert!(lo >= 200.0 - 1.0 && hi <= 2600.0 + 1.0 && hi - lo > 300.0, "within the generators' 200..2600 m: {lo}..{hi}");
+    let adherence = report["evaluation"]["adherence"]["ridge"].as_f64().unwrap();
+    assert!(adherence > 0.9, "the ridge stroke is a crest: {adherence}");
+}
+
+#[test]
 fn library_problems_are_reported() {
     let Some(data) = shared() else { return };
     let d = tmp("lib");

@@ -191,8 +191,9 @@ pub fn digest(parts: &[&[u8]]) -> String {
     h.finalize().iter().map(|b| format!("{b:02x}")).collect()
 }
 
-/// The sources of a library (a folder of DEMs, a DEM file or a manifest).
-pub fn library_sources(library: &Path) -> Result<Vec<Arc<dyn ExemplarSource>>> {
+/// The DEM files of a library (a folder of DEMs, a DEM file or a manifest's
+/// `[[exemplar]]` entries); `generators::library_sources` adds a manifest's generators.
+pub fn file_sources(library: &Path) -> Result<Vec<Arc<dyn ExemplarSource>>> {
     Ok(crate::library::scan_library(library)?
         .into_iter()
         .map(|spec| Arc::new(DemFile::new(spec)) as Arc<dyn ExemplarSource>)

@@ -37,6 +37,24 @@ pub fn from_recipe(r: &Recipe) -> Result<Arc<dyn ExemplarSource>> {
     }
 }
 
+/// Every source of a library (a folder of DEMs, a DEM file or a manifest): its files
+/// ([`crate::exemplar_source::file_sources`]), then a manifest's `[[generator]]`
+/// entries made by [`from_recipe`], in the manifest's order; a bad one is named with
+/// the manifest and its place in it.
+pub fn library_sources(library: &Path) -> Result<Vec<Arc<dyn ExemplarSource>>> {
+    let mut sources = crate::exemplar_source::file_sources(library)?;
+    if library.is_file() && !crate::dem_formats::is_dem_path(library) {
+        for (i, g) in crate::library::read_manifest_generators(library)?.into_iter().enumerate() {
+            let recipe = Recipe { generator: g.generator, params: g.params };
+            sources.push(from_recipe(&recipe).map_err(|e| TerrainError::Invalid {
+                path: library.to_path_buf(),
+                message: format!("generator {}: {e}", i + 1),
+            })?);
+        }
+    }
+    Ok(sources)
+}
+
 /// Fractional Brownian motion of value noise (see the module header).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -209,5 +227,38 @@ mod tests {
         let mut r = fbm().recipe();
         r.params["colour"] = serde_json::json!("red");
         assert!(e(r).contains("colour"));
+    }
+
+    #[test]
+    fn a_manifest_mixes_files_and_generators_and_names_a_bad_generator() {
+        let d = std::env::temp_dir().join(format!("rl-manifest-gen-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        std::fs::write(d.join("a.hgt"), [0u8; 8]).unwrap();
+        let fbm = "[[generator]]\ngenerator = \"fbm\"\n[generator.params]\nname = \"hills\"\nwidth = 96\nheight = 80\ncell_size_m = 90\nseed = 4\nwavelength_cells = 32\noctaves = 5\ngain = 0.5\nlacunarity = 2\nrelief_m = 900\nbase_m = 100\n";
+        let m = d.join("lib.toml");
+        std::fs::write(&m, format!("[[exemplar]]\nfile = \"a.hgt\"\n{fbm}")).unwrap();
+        let sources = library_sources(&m).unwrap();
+        let names: Vec<String> = sources.iter().map(|s| s.name()).collect();
+        assert_eq!(names, ["a.hgt", "hills"]);
+        let h = sources[1].heights(Some(90.0), 1024).unwrap();
+        let (lo, hi) = h.finite_range().unwrap();
+        assert_eq!((h.width, h.height), (96, 80));
+        assert!((lo - 100.0).abs() < 1e-3 && (hi - 1000.0).abs() < 1e-3, "{lo}..{hi}");
+        // a library of generators alone
+        std::fs::write(&m, fbm).unwrap();
+        assert_eq!(library_sources(&m).unwrap().len(), 1);
+        assert!(crate::library::scan_library(&m).unwrap().is_empty());
+        // an unknown generator or a bad parameter is named with the manifest
+        std::fs::write(&m, fbm.replace("\"fbm\"", "\"perlin\"")).unwrap();
+        let e = library_sources(&m).unwrap_err().to_string();
+        assert!(e.contains("lib.toml") && e.contains("generator 1") && e.contains("'perlin' is not a generator"), "{e}");
+        std::fs::write(&m, fbm.replace("octaves = 5", "octaves = 99")).unwrap();
+        let e = library_sources(&m).unwrap_err().to_string();
+        assert!(e.contains("generator 1") && e.contains("octaves"), "{e}");
+        // a manifest that lists nothing says so
+        std::fs::write(&m, "").unwrap();
+        assert!(crate::library::scan_library(&m).unwrap_err().to_string().contains("lists no exemplar"));
+        let _ = std::fs::remove_dir_all(&d);
     }
 }

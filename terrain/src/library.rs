@@ -74,14 +74,24 @@ struct ManifestEntry {
 #[derive(Debug, Clone, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 struct Manifest {
-    #[serde(alias = "exemplars")]
+    #[serde(alias = "exemplars", default)]
     exemplar: Vec<ManifestEntry>,
+    /// Generated exemplars ([`GeneratorEntry`]).
+    #[serde(alias = "generators", default)]
+    generator: Vec<GeneratorEntry>,
 }
 
-/// Reads a manifest (`.toml` or `.json`): a list `exemplar` of entries with `file`
-/// (relative to the manifest), optional `cell_size_m`, `unit` (metres|feet) and
-/// `nodata`. Every listed file must exist.
-pub fn read_manifest(path: &Path) -> Result<Vec<ExemplarSpec>> {
+/// A manifest's generated exemplar: the generator's name and its parameters, made into
+/// a source by `generators::library_sources` (the recipe of `generators::from_recipe`).
+#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GeneratorEntry {
+    pub generator: String,
+    pub params: serde_json::Value,
+}
+
+/// Parses a manifest, refusing one that lists nothing.
+fn parse_manifest(path: &Path) -> Result<Manifest> {
     let text = crate::io::read_text_input(path)?;
     let bad = |m: String| TerrainError::Invalid { path: path.to_path_buf(), message: m };
     let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
@@ -90,6 +100,25 @@ pub fn read_manifest(path: &Path) -> Result<Vec<ExemplarSpec>> {
         "json" => serde_json::from_str(&text).map_err(|e| bad(format!("bad manifest: {e}")))?,
         _ => return Err(bad("not an exemplar library: give a folder of DEMs, a DEM file or a manifest (.toml or .json)".into())),
     };
+    if m.exemplar.is_empty() && m.generator.is_empty() {
+        return Err(bad("the manifest lists no exemplar (`[[exemplar]]` with a file) and no generator (`[[generator]]`)".into()));
+    }
+    Ok(m)
+}
+
+/// The generated exemplars a manifest lists (`[[generator]]` entries: `generator =
+/// "fbm"` and its `params`), in order.
+pub fn read_manifest_generators(path: &Path) -> Result<Vec<GeneratorEntry>> {
+    Ok(parse_manifest(path)?.generator)
+}
+
+/// Reads a manifest (`.toml` or `.json`): a list `exemplar` of entries with `file`
+/// (relative to the manifest), optional `cell_size_m`, `unit` (metres|feet) and
+/// `nodata`, and a list `generator` of generated exemplars
+/// ([`read_manifest_generators`]). Every listed file must exist.
+pub fn read_manifest(path: &Path) -> Result<Vec<ExemplarSpec>> {
+    let bad = |m: String| TerrainError::Invalid { path: path.to_path_buf(), message: m };
+    let m = parse_manifest(path)?;
     let base = path.parent().unwrap_or(Path::new("."));
     let mut out = Vec::new();
     for (i, e) in m.exemplar.into_iter().enumerate() {

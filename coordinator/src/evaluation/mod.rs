@@ -295,7 +295,7 @@ pub fn load_library(
     cell: Option<f32>,
     wanted: Option<&Provenance>,
 ) -> Result<Vec<(String, Heightfield)>, ridgeline_terrain::TerrainError> {
-    load_sources(&ridgeline_terrain::exemplar_source::library_sources(library)?, cell, wanted)
+    load_sources(&ridgeline_terrain::generators::library_sources(library)?, cell, wanted)
 }
 
 impl Evaluation {

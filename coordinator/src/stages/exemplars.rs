@@ -8,7 +8,8 @@
 //! listed; the stage fails, saying why each was skipped, only when none is left.
 
 use crate::shards::Shards;
-use ridgeline_terrain::exemplar_source::{library_sources, ExemplarSource, InMemory};
+use ridgeline_terrain::exemplar_source::{ExemplarSource, InMemory};
+use ridgeline_terrain::generators::library_sources;
 use ridgeline_terrain::grid::Heightfield;
 use ridgeline_terrain::shard::{LevelSpec, ShardError, ShardScorer, OUTPUT_LEVEL};
 use ridgeline_terrain::TerrainError;
