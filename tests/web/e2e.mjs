@@ -161,13 +161,13 @@ try {
   if (sketchJson.width !== SIZE || sketchJson.strokes.map((s) => s.pen).join() !== 'ridge,valley') fail(`saved sketch: ${JSON.stringify(sketchJson).slice(0, 200)}`);
   await page.click('#clear');
   await page.setInputFiles('#load-sketch', sketchFile);
-  await page.waitForFunction((n) => {
-    const c = document.getElementById('sketch');
-    const px = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
-    let k = 0;
-    for (let i = 0; i < px.length; i += 4) if (Math.abs(px[i] - 128) + Math.abs(px[i + 1] - 128) + Math.abs(px[i + 2] - 128) > 30) k++;
-    return k === n;
-  }, drawnCells, { timeout: 5000 }).catch(() => fail('the loaded sketch does not draw what was saved'));
+  // the file is read asynchronously: wait for the drawing
+  let loaded = await inked();
+  for (let i = 0; i < 50 && loaded !== drawnCells; i++) {
+    await page.waitForTimeout(100);
+    loaded = await inked();
+  }
+  if (loaded !== drawnCells) fail(`the loaded sketch draws ${loaded} cells, want ${drawnCells}`);
   // a file that is not a sketch is refused with its name
   const junk = path.join(dir, 'junk.json');
   fs.writeFileSync(junk, '{"width": 10, "height": 10, "strokes": [{"pen": "cliff", "width": 3, "points": [[1, 1]]}]}');

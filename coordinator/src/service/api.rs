@@ -189,7 +189,7 @@ fn parse_request(body: &[u8], max_side: u32, decoding: &std::sync::Mutex<()>) ->
     Ok((req, sketch))
 }
 
-/// A job's terrain files by format: `terrain.tif` first (the 3D view reads it).
+/// A job's terrain files by format (each job writes all four; the 3D view reads `terrain.tif`).
 const TERRAIN_FILES: [(&str, &str); 4] =
     [("tif", "terrain.tif"), ("exr", "terrain.exr"), ("png", "terrain16.png"), ("r16", "terrain.r16")];
 
@@ -204,8 +204,7 @@ fn job_builder(
     // the tiles are cut beside the terrain in its format: the file of the tiles'
     // format is the terrain, the others its copies
     let tile_format = req.tile_format.as_deref().unwrap_or("tif");
-    let (tiled, copies): (Vec<&(&str, &str)>, Vec<_>) = TERRAIN_FILES.iter().partition(|(format, _)| *format == tile_format);
-    let terrain = dir.join(tiled.first().map(|f| f.1).unwrap_or("terrain.tif"));
+    let terrain = TERRAIN_FILES.iter().find(|f| f.0 == tile_format).map_or("terrain.tif", |f| f.1);
     let mut b = Session::builder()
         .sketch(sketch)
         .exemplars(Exemplars::Library { path: cfg.library.clone(), only: req.exemplars.clone() })
@@ -217,8 +216,8 @@ fn job_builder(
         .max_side(cfg.max_side)
         .cancel(cancel)
         .outputs(OutputFiles {
-            terrain,
-            also: copies.iter().map(|f| dir.join(f.1)).collect(),
+            terrain: dir.join(terrain),
+            also: TERRAIN_FILES.iter().filter(|f| f.1 != terrain).map(|f| dir.join(f.1)).collect(),
             tiles: req.tiles,
             preview: Some(dir.join("preview.png")),
             report: Some(dir.join("report.json")),

@@ -413,28 +413,25 @@ fn is_job_folder_name(name: &str) -> bool {
 /// as `name` and `folder/name`, sorted.
 fn list_files(dir: &std::path::Path) -> Vec<String> {
     let mut v = Vec::new();
-    let Ok(rd) = std::fs::read_dir(dir) else { return v };
-    for e in rd.filter_map(|e| e.ok()) {
-        let Some(name) = e.file_name().to_str().map(str::to_string) else { continue };
-        let Ok(kind) = e.file_type() else { continue };
-        if name.starts_with('.') {
-            continue;
-        }
+    for (name, kind) in visible_entries(dir) {
         if kind.is_file() {
             v.push(name);
         } else if kind.is_dir() {
-            let inner = std::fs::read_dir(e.path()).into_iter().flatten().filter_map(|e| e.ok());
-            v.extend(
-                inner
-                    .filter(|e| e.file_type().map(|t| t.is_file()).unwrap_or(false))
-                    .filter_map(|e| e.file_name().to_str().map(str::to_string))
-                    .filter(|n| !n.starts_with('.'))
-                    .map(|n| format!("{name}/{n}")),
-            );
+            let inner = visible_entries(&dir.join(&name)).into_iter().filter(|(_, k)| k.is_file());
+            v.extend(inner.map(|(n, _)| format!("{name}/{n}")));
         }
     }
     v.sort();
     v
+}
+
+/// A folder's entries with UTF-8 names not starting with a dot, and their kinds.
+fn visible_entries(dir: &std::path::Path) -> Vec<(String, std::fs::FileType)> {
+    let Ok(rd) = std::fs::read_dir(dir) else { return Vec::new() };
+    rd.filter_map(|e| e.ok())
+        .filter_map(|e| Some((e.file_name().to_str()?.to_string(), e.file_type().ok()?)))
+        .filter(|(n, _)| !n.starts_with('.'))
+        .collect()
 }
 
 /// A running job's progress, into its record and onto the event stream.
