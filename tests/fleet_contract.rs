@@ -7,7 +7,7 @@
 use ridgeline::cluster::{remote_shards, Cluster, ClusterConfig};
 use ridgeline::session::{Backend, DemFile, ExemplarSource, Exemplars, InMemory, Session, SketchSource};
 use ridgeline_proto::v1;
-use ridgeline_terrain::generators::Fbm;
+use ridgeline_terrain::generators::{Noise, NoiseKind};
 use ridgeline_terrain::library::{load_exemplar, scan_library};
 use ridgeline_terrain::outputs::encode_tiff_f32;
 use ridgeline_terrain::shard::{LevelSpec, ShardScorer};
@@ -27,19 +27,8 @@ fn mixed_sources(data: &std::path::Path) -> Vec<Arc<dyn ExemplarSource>> {
     let specs = scan_library(&data.join("dems")).unwrap();
     let spec = |n: &str| specs.iter().find(|s| s.name() == n).unwrap().clone();
     let alaska = load_exemplar(&spec("alaska.png"), Some(90.0), 4096).unwrap();
-    let fbm = Fbm {
-        name: "fbm-hills".into(),
-        width: 400,
-        height: 360,
-        cell_size_m: 90.0,
-        seed: 3,
-        wavelength_cells: 48.0,
-        octaves: 6,
-        gain: 0.5,
-        lacunarity: 2.0,
-        relief_m: 1500.0,
-        base_m: 800.0,
-    };
+    let fbm =
+        Noise { wavelength_cells: 48.0, octaves: 6, base_m: 800.0, ..Noise::new(NoiseKind::Fbm, "fbm-hills", 400, 360, 90.0, 3) };
     vec![
         Arc::new(DemFile::new(spec("rockies.png"))),
         Arc::new(InMemory::new("alaska-in-memory", alaska, Some(90.0))),

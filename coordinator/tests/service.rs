@@ -467,3 +467,56 @@ fn tokens_decode_errors_are_json_without_server_paths_and_restarts_and_sigterm_l
     assert!(finished.last().is_some_and(|l| l.contains("Cancelled")), "{finished:?}");
     assert!(!jobs_dir.join(&a).join("terrain.tif").exists(), "a job cancelled by SIGTERM leaves no terrain");
 }
+
+#[test]
+fn a_library_of_generators_alone_is_listed_with_thumbnails_and_makes_terrain() {
+    let d = tmp("generators");
+    let lib = d.join("generated.toml");
+    let generator = |kind: &str, name: &str, extra: &str| {
+        format!(
+            "[[generator]]\ngenerator = \"{kind}\"\n[generator.params]\nname = \"{name}\"\nwidth = 256\nheight = 256\n\
+             cell_size_m = 90\nseed = 4\nwavelength_cells = 64\noctaves = 6\ngain = 0.5\nlacunarity = 2\nrelief_m = 1800\nbase_m = 200\n{extra}"
+        )
+    };
+    let manifest =
+        [generator("ridged", "peaks", "ridge_offset = 1.1\n"), generator("warped", "folds", "warp_cells = 24\n")].concat();
+    std::fs::write(&lib, manifest).unwrap();
+    let s = serve(&d, &lib, &[]);
+    let (code, list) = get(&format!("{}/api/exemplars", s.url));
+    assert_eq!(code, 200);
+    let listed: Vec<(String, String)> = list["exemplars"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| (e["name"].as_str().unwrap().to_string(), e["generator"].as_str().unwrap_or("").to_string()))
+        .collect();
+    assert_eq!(listed, [("peaks".into(), "ridged".into()), ("folds".into(), "warped".into())], "{list}");
+    let mut png = Vec::new();
+    ureq::get(&format!("{}/api/exemplars/folds/thumbnail.png", s.url))
+        .call()
+        .unwrap()
+        .into_reader()
+        .read_to_end(&mut png)
+        .unwrap();
+    let img = image::load_from_memory(&png).unwrap().to_luma8();
+    assert_eq!((img.width(), img.height()), (96, 96), "a thumbnail of the generated heights");
+    let (lo, hi) = img.pixels().fold((255u8, 0u8), |(l, h), p| (l.min(p.0[0]), h.max(p.0[0])));
+    assert!(hi - lo > 60, "the hillshade shows relief: {lo}..{hi}");
+    // a job on one of them, by the name the page lists
+    let body =
+        serde_json::json!({ "sketch": { "strokes": strokes(128, 128) }, "seed": 2, "patch_size": 32, "exemplars": ["peaks"] });
+    let (code, st) = post(&format!("{}/api/jobs", s.url), &body, None);
+    assert_eq!(code, 202, "{st}");
+    let (fin, _) = follow(&s.url, st["id"].as_str().unwrap());
+    assert_eq!(fin["state"], "done", "{fin}");
+    // the terrain keeps to the generator's heights (the page's height view, in metres)
+    let mut hb = Vec::new();
+    let id = st["id"].as_str().unwrap();
+    ureq::get(&format!("{}/api/jobs/{id}/heights?max=128", s.url)).call().unwrap().into_reader().read_to_end(&mut hb).unwrap();
+    let heights: Vec<f32> = hb.chunks(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect();
+    let (lo, hi) = heights.iter().fold((f32::MAX, f32::MIN), |(l, h), &v| (l.min(v), h.max(v)));
+    assert!(
+        heights.len() >= 64 * 64 && lo >= 199.0 && hi <= 2001.0 && hi - lo > 300.0,
+        "inside the generator's 200..2000 m: {lo}..{hi}"
+    );
+}

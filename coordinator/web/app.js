@@ -188,7 +188,7 @@ async function loadExemplars(unchecked = []) {
   for (const e of exemplars) {
     const label = document.createElement('label');
     label.className = 'exemplar';
-    label.title = e.name;
+    label.title = e.generator ? `${e.name} (generated: ${e.generator} noise)` : e.name;
     const cb = document.createElement('input');
     cb.type = 'checkbox';
     cb.value = e.name;
@@ -200,7 +200,7 @@ async function loadExemplars(unchecked = []) {
     img.alt = e.name;
     img.src = withToken(`/api/exemplars/${encodeURIComponent(e.name)}/thumbnail.png`);
     const name = document.createElement('span');
-    name.textContent = e.name.replace(/\.[^.]+$/, '');
+    name.textContent = e.generator ? `${e.name} · ${e.generator}` : e.name.replace(/\.[^.]+$/, '');
     label.append(cb, img, name);
     box.append(label);
   }

@@ -9,15 +9,24 @@
 //! coordinator planned), so they use only f64 arithmetic with no transcendental
 //! functions and an integer hash, whose results IEEE 754 fixes exactly.
 //!
-//! The first generator is [`Fbm`]: fractional Brownian motion of value noise (octaves
-//! of smoothly interpolated lattice noise, each at `lacunarity` times the frequency
-//! and `gain` times the amplitude of the one before).
+//! [`Noise`] is the generator, in three kinds ([`NoiseKind`]), each built from octaves
+//! of smoothly interpolated lattice (value) noise, octave k at `lacunarity`^k times
+//! the frequency and `gain`^k times the amplitude of the first:
+//! - `fbm`: fractional Brownian motion, rolling hills to rough uplands;
+//! - `ridged`: Musgrave's ridged multifractal (Ebert et al., *Texturing and Modeling*,
+//!   ch. 16): each octave is `(offset - |n|)²`, weighted by the octave before it, so
+//!   sharp crests branch into spurs and the ground between them stays smooth;
+//! - `warped`: fBm sampled at a point displaced by two other fBm fields (domain
+//!   warping), `warp_cells` the largest displacement: sinuous, folded landforms.
+//!
+//! Every kind is scaled to span `base_m ..= base_m + relief_m` exactly.
 
 use crate::error::{Result, TerrainError};
 pub use crate::exemplar_source::Recipe;
 use crate::exemplar_source::{digest, scaled_area, ExemplarSource, Transport};
 use crate::grid::{Grid, Heightfield};
 use crate::library::resample_to_cell;
+use rayon::prelude::*;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -27,14 +36,14 @@ pub const MAX_GENERATED_SIDE: usize = 16384;
 /// The source a recipe describes, its parameters checked.
 pub fn from_recipe(r: &Recipe) -> Result<Arc<dyn ExemplarSource>> {
     let bad = |m: String| TerrainError::Invalid { path: format!("generator '{}'", r.generator).into(), message: m };
-    match r.generator.as_str() {
-        "fbm" => {
-            let f: Fbm = serde_json::from_value(r.params.clone()).map_err(|e| bad(format!("parameters: {e}")))?;
-            f.check().map_err(bad)?;
-            Ok(Arc::new(f))
-        }
-        other => Err(bad(format!("'{other}' is not a generator (known: fbm)"))),
-    }
+    let kind = NoiseKind::ALL.into_iter().find(|k| k.name() == r.generator).ok_or_else(|| {
+        let known: Vec<&str> = NoiseKind::ALL.iter().map(|k| k.name()).collect();
+        bad(format!("'{}' is not a generator (known: {})", r.generator, known.join(", ")))
+    })?;
+    let mut noise: Noise = serde_json::from_value(r.params.clone()).map_err(|e| bad(format!("parameters: {e}")))?;
+    noise.kind = kind;
+    noise.check().map_err(bad)?;
+    Ok(Arc::new(noise))
 }
 
 /// Every source of a library (a folder of DEMs, a DEM file or a manifest): its files
@@ -55,10 +64,35 @@ pub fn library_sources(library: &Path) -> Result<Vec<Arc<dyn ExemplarSource>>> {
     Ok(sources)
 }
 
-/// Fractional Brownian motion of value noise (see the module header).
+/// The kind of a [`Noise`] generator (see the module header); its name is the
+/// recipe's `generator`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum NoiseKind {
+    #[default]
+    Fbm,
+    Ridged,
+    Warped,
+}
+
+impl NoiseKind {
+    pub const ALL: [NoiseKind; 3] = [NoiseKind::Fbm, NoiseKind::Ridged, NoiseKind::Warped];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            NoiseKind::Fbm => "fbm",
+            NoiseKind::Ridged => "ridged",
+            NoiseKind::Warped => "warped",
+        }
+    }
+}
+
+/// A noise generator (see the module header). The parameters are the recipe's
+/// `params`; the kind is its `generator`.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct Fbm {
+pub struct Noise {
+    #[serde(skip)]
+    pub kind: NoiseKind,
     /// The name the exemplar goes by.
     pub name: String,
     pub width: usize,
@@ -75,10 +109,40 @@ pub struct Fbm {
     /// Peak-to-peak relief in metres and the lowest height.
     pub relief_m: f64,
     pub base_m: f64,
+    /// `warped` only: the largest displacement of a sample point, in cells (default
+    /// half the first octave's wavelength).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub warp_cells: Option<f64>,
+    /// `ridged` only: the offset a crest rises from (default 1; above 1 the ground
+    /// between crests is rougher).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ridge_offset: Option<f64>,
 }
 
-impl Fbm {
-    /// Refuses parameters that make no terrain or too large a one.
+impl Noise {
+    /// A generator of `kind` with the usual shape: the first octave an eighth of the
+    /// longer side, 8 octaves, gain 0.5, lacunarity 2, 1,500 m of relief from 0 m.
+    pub fn new(kind: NoiseKind, name: impl Into<String>, width: usize, height: usize, cell_size_m: f32, seed: u64) -> Self {
+        Noise {
+            kind,
+            name: name.into(),
+            width,
+            height,
+            cell_size_m,
+            seed,
+            wavelength_cells: (width.max(height) as f64 / 8.0).max(2.0),
+            octaves: 8,
+            gain: 0.5,
+            lacunarity: 2.0,
+            relief_m: 1500.0,
+            base_m: 0.0,
+            warp_cells: None,
+            ridge_offset: None,
+        }
+    }
+
+    /// Refuses parameters that make no terrain or too large a one, and a parameter
+    /// of another kind.
     pub fn check(&self) -> std::result::Result<(), String> {
         if self.width < 2 || self.height < 2 || self.width > MAX_GENERATED_SIDE || self.height > MAX_GENERATED_SIDE {
             return Err(format!("{} x {} cells: each side must be within 2..={MAX_GENERATED_SIDE}", self.width, self.height));
@@ -96,32 +160,97 @@ impl Fbm {
         if !shaped {
             return Err("octaves within 1..=16, gain within (0, 1), lacunarity within 1..=4".into());
         }
+        let only = |what: &str, kind: NoiseKind| format!("{what} is a parameter of '{}' only", kind.name());
+        match (self.warp_cells, self.kind) {
+            (Some(_), k) if k != NoiseKind::Warped => return Err(only("warp_cells", NoiseKind::Warped)),
+            (Some(w), _) if !(w.is_finite() && (0.0..=MAX_GENERATED_SIDE as f64).contains(&w)) => {
+                return Err(format!("warp_cells {w}: give a displacement from 0 to {MAX_GENERATED_SIDE} cells"))
+            }
+            _ => {}
+        }
+        match (self.ridge_offset, self.kind) {
+            (Some(_), k) if k != NoiseKind::Ridged => return Err(only("ridge_offset", NoiseKind::Ridged)),
+            (Some(o), _) if !(o.is_finite() && (0.5..=2.0).contains(&o)) => {
+                return Err(format!("ridge_offset {o}: give an offset from 0.5 to 2"))
+            }
+            _ => {}
+        }
         Ok(())
     }
 
     /// The recipe of this generator.
     pub fn recipe(&self) -> Recipe {
-        Recipe { generator: "fbm".into(), params: serde_json::to_value(self).unwrap_or_default() }
+        Recipe { generator: self.kind.name().into(), params: serde_json::to_value(self).unwrap_or_default() }
     }
 
     /// The heights at the generator's own cell size.
     pub fn generate(&self) -> Heightfield {
-        let mut raw = vec![0f64; self.width * self.height];
-        let (mut freq, mut amp) = (1.0 / self.wavelength_cells, 1.0);
-        for octave in 0..self.octaves {
-            let salt = self.seed ^ (octave as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-            for (i, v) in raw.iter_mut().enumerate() {
-                let (x, y) = ((i % self.width) as f64 * freq, (i / self.width) as f64 * freq);
-                *v += amp * value_noise(x, y, salt);
+        let w = self.width;
+        let mut raw = vec![0f64; w * self.height];
+        raw.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+            for (x, v) in row.iter_mut().enumerate() {
+                *v = self.sample(x as f64, y as f64);
             }
-            freq *= self.lacunarity;
-            amp *= self.gain;
-        }
+        });
         let (lo, hi) = raw.iter().fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
         let span = (hi - lo).max(1e-12);
         let data = raw.iter().map(|&v| (self.base_m + (v - lo) / span * self.relief_m) as f32).collect();
-        Grid::from_vec(self.width, self.height, data)
+        Grid::from_vec(w, self.height, data)
     }
+
+    /// The unscaled value at cell (x, y).
+    fn sample(&self, x: f64, y: f64) -> f64 {
+        match self.kind {
+            NoiseKind::Fbm => self.fbm(x, y, self.octaves, self.seed),
+            NoiseKind::Ridged => self.ridged(x, y),
+            NoiseKind::Warped => {
+                // two displacement fields of the broad octaves, salted apart from the
+                // terrain's own, each within [-1, 1]
+                let broad = self.octaves.min(4);
+                let norm: f64 = (0..broad).scan(1.0, |amp, _| Some(std::mem::replace(amp, *amp * self.gain))).sum();
+                let qx = self.fbm(x, y, broad, self.seed ^ 0xA5A5_0001) / norm;
+                let qy =
+                    self.fbm(x + 0.37 * self.wavelength_cells, y + 0.61 * self.wavelength_cells, broad, self.seed ^ 0xA5A5_0002)
+                        / norm;
+                let warp = self.warp_cells.unwrap_or(self.wavelength_cells / 2.0);
+                self.fbm(x + warp * qx, y + warp * qy, self.octaves, self.seed)
+            }
+        }
+    }
+
+    /// fBm of `octaves` octaves at cell (x, y) (within ± the sum of the amplitudes,
+    /// below 1 / (1 - gain)).
+    fn fbm(&self, x: f64, y: f64, octaves: u32, seed: u64) -> f64 {
+        let (mut freq, mut amp, mut sum) = (1.0 / self.wavelength_cells, 1.0, 0.0);
+        for octave in 0..octaves {
+            sum += amp * value_noise(x * freq, y * freq, octave_salt(seed, octave));
+            freq *= self.lacunarity;
+            amp *= self.gain;
+        }
+        sum
+    }
+
+    /// Ridged multifractal at cell (x, y): each octave's ridge `(offset - |n|)²`,
+    /// weighted by twice the ridge of the octave before (clamped to 1), so detail
+    /// gathers on the crests.
+    fn ridged(&self, x: f64, y: f64) -> f64 {
+        let offset = self.ridge_offset.unwrap_or(1.0);
+        let (mut freq, mut amp, mut sum, mut weight) = (1.0 / self.wavelength_cells, 1.0, 0.0, 1.0);
+        for octave in 0..self.octaves {
+            let n = value_noise(x * freq, y * freq, octave_salt(self.seed, octave));
+            let ridge = (offset - n.abs()).max(0.0);
+            let signal = ridge * ridge * weight;
+            sum += amp * signal;
+            weight = (signal * 2.0).clamp(0.0, 1.0);
+            freq *= self.lacunarity;
+            amp *= self.gain;
+        }
+        sum
+    }
+}
+
+fn octave_salt(seed: u64, octave: u32) -> u64 {
+    seed ^ (octave as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
 }
 
 /// Value noise at (x, y): hashed lattice values in [-1, 1] blended by the quintic
@@ -149,7 +278,7 @@ fn lattice(x: i64, y: i64, salt: u64) -> f64 {
     (z >> 11) as f64 / (1u64 << 52) as f64 - 1.0
 }
 
-impl ExemplarSource for Fbm {
+impl ExemplarSource for Noise {
     fn name(&self) -> String {
         self.name.clone()
     }
@@ -177,19 +306,13 @@ impl ExemplarSource for Fbm {
 mod tests {
     use super::*;
 
-    fn fbm() -> Fbm {
-        Fbm {
-            name: "hills".into(),
-            width: 96,
-            height: 80,
-            cell_size_m: 90.0,
-            seed: 7,
+    fn fbm() -> Noise {
+        Noise {
             wavelength_cells: 32.0,
             octaves: 5,
-            gain: 0.5,
-            lacunarity: 2.0,
             relief_m: 1200.0,
             base_m: 300.0,
+            ..Noise::new(NoiseKind::Fbm, "hills", 96, 80, 90.0, 7)
         }
     }
 
@@ -207,17 +330,79 @@ mod tests {
         // continuous: neighbouring cells of a row differ far less than the relief
         let step = a.data.chunks(a.width).flat_map(|row| row.windows(2).map(|w| (w[1] - w[0]).abs())).fold(0f32, f32::max);
         assert!(step < 1200.0 / 8.0, "largest step {step}");
-        let other = Fbm { seed: 8, ..fbm() }.generate();
+        let other = Noise { seed: 8, ..fbm() }.generate();
         assert!(other.data.iter().zip(&a.data).filter(|(x, y)| (*x - *y).abs() > 50.0).count() > a.data.len() / 4);
-        assert_ne!(f.identity(Some(90.0)).unwrap(), Fbm { seed: 8, ..fbm() }.identity(Some(90.0)).unwrap());
+        assert_ne!(f.identity(Some(90.0)).unwrap(), Noise { seed: 8, ..fbm() }.identity(Some(90.0)).unwrap());
         // resampled like a DEM to another cell size
         assert_eq!(f.heights(Some(45.0), 4096).unwrap().width, 192);
+    }
+
+    /// The 2nd and 98th percentiles of the 5-point Laplacian (curvature of crests
+    /// and of hollows).
+    fn curvature_tails(h: &Heightfield) -> (f32, f32) {
+        let mut lap = Vec::new();
+        for y in 1..h.height - 1 {
+            for x in 1..h.width - 1 {
+                let c = h.get(x, y);
+                lap.push(h.get(x - 1, y) + h.get(x + 1, y) + h.get(x, y - 1) + h.get(x, y + 1) - 4.0 * c);
+            }
+        }
+        lap.sort_by(f32::total_cmp);
+        (lap[lap.len() / 50], lap[lap.len() * 49 / 50])
+    }
+
+    #[test]
+    fn ridged_noise_has_sharp_crests_and_smooth_hollows_and_fbm_is_even_handed() {
+        let shape = |kind| Noise { wavelength_cells: 48.0, octaves: 6, ..Noise::new(kind, "n", 192, 192, 90.0, 11) };
+        let (crest, hollow) = curvature_tails(&shape(NoiseKind::Ridged).generate());
+        // crests (negative Laplacian) are far sharper than the hollows between them
+        // (2.0 to 2.1 over seeds 1..=5 and 11; fBm 0.98 to 1.02)
+        assert!(-crest > 1.6 * hollow, "ridged: crest {crest}, hollow {hollow}");
+        let (crest, hollow) = curvature_tails(&shape(NoiseKind::Fbm).generate());
+        assert!(-crest < 1.25 * hollow && hollow < -1.25 * crest, "fbm: crest {crest}, hollow {hollow}");
+        // the same recipe again through the manifest's path, bit for bit
+        let r = shape(NoiseKind::Ridged);
+        let again = from_recipe(&r.recipe()).unwrap().heights(None, 4096).unwrap();
+        assert!(again.data.iter().zip(&r.generate().data).all(|(a, b)| a.to_bits() == b.to_bits()));
+        assert_eq!(r.recipe().generator, "ridged");
+        // the offset changes the terrain
+        let rougher = Noise { ridge_offset: Some(1.4), ..shape(NoiseKind::Ridged) }.generate();
+        assert!(rougher.data.iter().zip(&r.generate().data).filter(|(a, b)| (*a - *b).abs() > 20.0).count() > 192 * 192 / 4);
+    }
+
+    #[test]
+    fn warped_noise_is_fbm_displaced_and_stays_continuous() {
+        let shape = |warp| Noise {
+            wavelength_cells: 40.0,
+            octaves: 6,
+            warp_cells: warp,
+            ..Noise::new(NoiseKind::Warped, "w", 160, 128, 90.0, 5)
+        };
+        let fbm = Noise { kind: NoiseKind::Fbm, ..shape(None) }.generate();
+        // no displacement: exactly the fBm of the same parameters
+        let still = shape(Some(0.0)).generate();
+        assert!(still.data.iter().zip(&fbm.data).all(|(a, b)| a.to_bits() == b.to_bits()));
+        let warped = shape(Some(30.0)).generate();
+        let moved = warped.data.iter().zip(&fbm.data).filter(|(a, b)| (*a - *b).abs() > 100.0).count();
+        assert!(moved > warped.data.len() / 4, "{moved} cells moved by 100 m");
+        // continuous: the displacement is smooth, so no step between neighbours is
+        // more than a few times the fBm's largest (218 m against 115 m here)
+        let step =
+            warped.data.chunks(warped.width).flat_map(|row| row.windows(2).map(|w| (w[1] - w[0]).abs())).fold(0f32, f32::max);
+        let fstep = fbm.data.chunks(fbm.width).flat_map(|row| row.windows(2).map(|w| (w[1] - w[0]).abs())).fold(0f32, f32::max);
+        assert!(step < 2.5 * fstep, "largest step {step}, fBm's {fstep}");
+        let (lo, hi) = warped.finite_range().unwrap();
+        assert!(lo.abs() < 1e-3 && (hi - 1500.0).abs() < 1e-2, "{lo}..{hi}");
+        let r = shape(Some(30.0)).recipe();
+        assert_eq!(r.generator, "warped");
+        assert_eq!(r.params["warp_cells"], serde_json::json!(30.0));
     }
 
     #[test]
     fn bad_recipes_are_refused_with_the_reason() {
         let e = |r: Recipe| from_recipe(&r).unwrap_err().to_string();
-        assert!(e(Recipe { generator: "plasma".into(), params: serde_json::json!({}) }).contains("not a generator"));
+        let plasma = e(Recipe { generator: "plasma".into(), params: serde_json::json!({}) });
+        assert!(plasma.contains("'plasma' is not a generator (known: fbm, ridged, warped)"), "{plasma}");
         let mut r = fbm().recipe();
         r.params["octaves"] = serde_json::json!(40);
         assert!(e(r).contains("octaves"));
@@ -227,6 +412,18 @@ mod tests {
         let mut r = fbm().recipe();
         r.params["colour"] = serde_json::json!("red");
         assert!(e(r).contains("colour"));
+        // a parameter of another kind, or out of its range
+        let mut r = fbm().recipe();
+        r.params["warp_cells"] = serde_json::json!(10);
+        assert!(e(r).contains("warp_cells is a parameter of 'warped' only"));
+        let mut r = fbm().recipe();
+        r.generator = "ridged".into();
+        r.params["ridge_offset"] = serde_json::json!(7);
+        assert!(e(r).contains("ridge_offset 7"));
+        let mut r = fbm().recipe();
+        r.generator = "warped".into();
+        r.params["warp_cells"] = serde_json::json!(-3);
+        assert!(e(r).contains("warp_cells -3"));
     }
 
     #[test]

@@ -39,7 +39,7 @@ pub enum ServiceError {
     Config(String),
     #[error(transparent)]
     Library(#[from] ridgeline_terrain::TerrainError),
-    #[error("{0}: the exemplar library holds no DEM")]
+    #[error("{0}: the exemplar library holds no exemplar (no DEM file and no generator)")]
     EmptyLibrary(PathBuf),
     #[error("{path}: {cause}", path = .0.display(), cause = .1)]
     JobsDir(PathBuf, std::io::Error),

@@ -3,7 +3,8 @@
 
 use super::jobs::JobQueue;
 use crate::session::Backend;
-use ridgeline_terrain::library::{scan_library, ExemplarSpec};
+use ridgeline_terrain::exemplar_source::{ExemplarSource, Transport};
+use ridgeline_terrain::generators::library_sources;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
@@ -66,8 +67,10 @@ impl ServiceConfig {
 }
 
 /// The library as the page sees it: names, sizes, thumbnails made on first request.
+/// It lists every source a job can draw on (files and a manifest's generators), so a
+/// subset the page sends is one `Exemplars::Library` accepts.
 pub struct LibraryIndex {
-    specs: Vec<ExemplarSpec>,
+    sources: Vec<Arc<dyn ExemplarSource>>,
     thumbs: Mutex<BTreeMap<String, Arc<Vec<u8>>>>,
     max_side: u32,
 }
@@ -78,13 +81,22 @@ pub const THUMBNAIL_SIDE: usize = 96;
 impl LibraryIndex {
     /// The exemplars of `library`; `None` when it holds none.
     pub fn scan(library: &std::path::Path, max_side: u32) -> Result<Option<Self>, ridgeline_terrain::TerrainError> {
-        let specs = scan_library(library)?;
-        Ok((!specs.is_empty()).then(|| LibraryIndex { specs, thumbs: Mutex::new(BTreeMap::new()), max_side }))
+        let sources = library_sources(library)?;
+        Ok((!sources.is_empty()).then(|| LibraryIndex { sources, thumbs: Mutex::new(BTreeMap::new()), max_side }))
     }
 
-    /// Name and cell size of every exemplar.
+    /// Name and cell size of every exemplar, and the generator of a generated one.
     pub fn entries(&self) -> Vec<serde_json::Value> {
-        self.specs.iter().map(|s| serde_json::json!({ "name": s.name(), "cell_size_m": s.cell_size_m })).collect()
+        self.sources
+            .iter()
+            .map(|s| {
+                let mut e = serde_json::json!({ "name": s.name(), "cell_size_m": s.cell_size_m() });
+                if let Ok(Transport::Recipe(r)) = s.transport() {
+                    e["generator"] = r.generator.into();
+                }
+                e
+            })
+            .collect()
     }
 
     /// A small hillshade of exemplar `name` as PNG.
@@ -92,12 +104,13 @@ impl LibraryIndex {
         if let Some(t) = self.thumbs.lock().unwrap_or_else(|e| e.into_inner()).get(name) {
             return Ok(t.to_vec());
         }
-        let spec = self.specs.iter().find(|s| s.name() == name).ok_or_else(|| format!("no exemplar '{name}' in the library"))?;
-        let h = ridgeline_terrain::library::load_exemplar(spec, None, self.max_side).map_err(|e| e.to_string())?;
+        let source =
+            self.sources.iter().find(|s| s.name() == name).ok_or_else(|| format!("no exemplar '{name}' in the library"))?;
+        let h = source.heights(None, self.max_side).map_err(|e| e.to_string())?;
         let scale = (h.width.max(h.height) as f32 / THUMBNAIL_SIDE as f32).max(1.0);
         let (w, hh) = (((h.width as f32 / scale) as usize).max(1), ((h.height as f32 / scale) as usize).max(1));
         let small = h.resample(w, hh);
-        let cell = spec.cell_size_m.unwrap_or(90.0) * scale;
+        let cell = source.cell_size_m().unwrap_or(90.0) * scale;
         let img = ridgeline_terrain::io::hillshade(&small, cell);
         let mut png = Vec::new();
         img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png).map_err(|e| e.to_string())?;
