@@ -137,6 +137,23 @@ impl Canvas {
         }
     }
 
+    /// The whole output's canvas with the cells of `known` where `keep` holds already
+    /// filled (an existing terrain being edited, `stages::editing`): they come from one
+    /// placement of no source, so patches and fills next to them match and merge
+    /// against them like against any placed patch.
+    pub fn seeded(known: &Heightfield, keep: impl Fn(usize) -> bool, patch: usize) -> Self {
+        let (w, h) = (known.width, known.height);
+        let mut c = Canvas::new(w, h, patch);
+        let id =
+            c.record(Placement { source: u32::MAX, src_x: 0, src_y: 0, variant: 0, cx: w / 2, cy: h / 2, featureless: true });
+        for i in (0..w * h).filter(|&i| keep(i) && known.data[i].is_finite()) {
+            c.heights.data[i] = known.data[i];
+            c.provenance.data[i] = id;
+            c.empty -= 1;
+        }
+        c
+    }
+
     /// Global coordinates of this canvas's first cell.
     pub fn origin(&self) -> (usize, usize) {
         self.origin

@@ -203,10 +203,19 @@ fn serve_metrics(addr: Option<std::net::SocketAddr>) -> Result<()> {
 fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
     use ridgeline::session::{Exemplars, Session, SketchSource};
     let backend = backend(worker_urls(&a)?, a.gpu, &a.token, &a.tls_ca, a.call_timeout_s, JOB_ID.get().cloned());
-    let sketch = if a.sketch.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")) {
-        SketchSource::Strokes(read_stroke_sketch(&a.sketch, a.max_side)?)
-    } else {
-        SketchSource::File(a.sketch.clone())
+    let edit = edit_of(&a)?;
+    let sketch = match (&a.sketch, &edit) {
+        (Some(p), _) if p.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")) => {
+            SketchSource::Strokes(read_stroke_sketch(p, a.max_side)?)
+        }
+        (Some(p), _) => SketchSource::File(p.clone()),
+        // an edit without a sketch: no strokes, hole filling alone
+        (None, Some(e)) => SketchSource::Strokes(ridgeline::session::StrokeSketch {
+            width: e.base.width,
+            height: e.base.height,
+            strokes: Vec::new(),
+        }),
+        (None, None) => bail!("give --sketch (or --base to edit an existing terrain)"),
     };
     let range = a.elevation_range.or(a.sea_level.zip(a.relief).map(|(s, r)| [s, s + r]));
     let georef = match (&a.crs, &a.origin) {
@@ -261,8 +270,18 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
             georef,
             masks,
         });
-    for (name, p) in a.workers_file.iter().map(|p| ("the workers file", p)).chain(a.tls_ca.iter().map(|p| ("the TLS CA", p))) {
+    let inputs = [
+        ("the workers file", &a.workers_file),
+        ("the TLS CA", &a.tls_ca),
+        ("the base terrain", &a.base),
+        ("the mask", &a.mask),
+        ("the earlier sketch", &a.changed_from),
+    ];
+    for (name, p) in inputs.iter().filter_map(|(n, p)| p.as_ref().map(|p| (*n, p))) {
         builder = builder.input_file(name, p);
+    }
+    if let Some(e) = edit {
+        builder = builder.edit(e);
     }
     if let Some(c) = a.cell_size {
         builder = builder.cell_size(c);
@@ -321,6 +340,51 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
         eprintln!("note: skipped exemplar {}", s.reason);
     }
     Ok(())
+}
+
+/// The edit `--base` with `--mask`, `--changed-from` or `--extend` asks for, every
+/// problem naming its file.
+fn edit_of(a: &SynthArgs) -> Result<Option<ridgeline::stages::editing::Edit>> {
+    use ridgeline::stages::editing::Edit;
+    let Some(base_path) = &a.base else { return Ok(None) };
+    fn named(p: &Path) -> impl Fn(String) -> anyhow::Error + '_ {
+        move |m| anyhow::anyhow!("{}: {m}", p.display())
+    }
+    if base_path.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")) {
+        bail!("{}: a PNG holds no metres; give the base as a float TIFF (as --out terrain.tif writes)", base_path.display());
+    }
+    let base = ridgeline_terrain::dem_formats::read_dem(base_path, None, a.max_side)?.heights;
+    let blend = a.blend.map_or(a.patch_size / 4, |b| b as usize);
+    let sketch_grid = |p: &Path| -> Result<ridgeline_terrain::grid::Grid<u8>> {
+        Ok(if p.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")) {
+            read_stroke_sketch(p, a.max_side)?.rasterize()
+        } else {
+            ridgeline_terrain::io::read_sketch(p, a.max_side)?
+        })
+    };
+    let edit = if let Some(m) = &a.mask {
+        let bytes = ridgeline_terrain::io::read_input(m, ridgeline_terrain::io::raster_byte_limit(a.max_side))?;
+        let img = ridgeline_terrain::io::decode_image(m, &bytes, a.max_side)?.to_luma8();
+        let (w, h) = (img.width() as usize, img.height() as usize);
+        let mask = ridgeline_terrain::grid::Grid::from_vec(w, h, img.pixels().map(|p| p.0[0] > 127).collect());
+        Edit::new(base, mask, blend).map_err(named(m))?
+    } else if let Some(old) = &a.changed_from {
+        let Some(new) = &a.sketch else { bail!("--changed-from {}: give the new --sketch too", old.display()) };
+        Edit::changed(base, &sketch_grid(old)?, &sketch_grid(new)?, a.patch_size, blend).map_err(named(old))?
+    } else if let Some(by) = &a.extend {
+        let v: Vec<usize> = by.split(',').map(|v| v.trim().parse()).collect::<Result<_, _>>().unwrap_or_default();
+        let Ok(by) = <[usize; 4]>::try_from(v) else {
+            bail!("--extend {by}: give four numbers of cells, LEFT,TOP,RIGHT,BOTTOM (e.g. 256,0,256,0)")
+        };
+        let grown = (base.width + by[0] + by[2], base.height + by[1] + by[3]);
+        if grown.0.max(grown.1) > a.max_side as usize {
+            bail!("--extend: the grown terrain would be {} x {} cells, beyond --max-side {}", grown.0, grown.1, a.max_side);
+        }
+        Edit::extend(&base, by, blend).map_err(|m| anyhow::anyhow!("--extend: {m}"))?
+    } else {
+        bail!("--base {}: say what to make anew with --mask, --changed-from or --extend", base_path.display())
+    };
+    Ok(Some(edit))
 }
 
 /// A vector sketch file (`--sketch sketch.json`), read with a size limit.

@@ -32,6 +32,8 @@ pub enum Stage {
     Erosion,
     /// Depressions breached so the valleys drain, and the elevation range held.
     Conditioning,
+    /// On an existing terrain (`--base`), the new cells joined into it.
+    Editing,
     /// Realism figures against the sources (when a report is asked for).
     Evaluation,
     /// Writing the outputs.
@@ -40,7 +42,7 @@ pub enum Stage {
 
 impl Stage {
     /// Every stage, in order.
-    pub const ALL: [Stage; 12] = [
+    pub const ALL: [Stage; 13] = [
         Stage::Exemplars,
         Stage::SketchFeatures,
         Stage::LargeScale,
@@ -51,6 +53,7 @@ impl Stage {
         Stage::SketchFit,
         Stage::Erosion,
         Stage::Conditioning,
+        Stage::Editing,
         Stage::Evaluation,
         Stage::Write,
     ];
@@ -68,6 +71,7 @@ impl Stage {
             Stage::SketchFit => "sketch_fit",
             Stage::Erosion => "erosion",
             Stage::Conditioning => "conditioning",
+            Stage::Editing => "editing",
             Stage::Evaluation => "evaluation",
             Stage::Write => "write",
         }
@@ -86,6 +90,7 @@ impl Stage {
             Stage::SketchFit => "sketch fit",
             Stage::Erosion => "erosion",
             Stage::Conditioning => "drainage and range",
+            Stage::Editing => "joining the edit",
             Stage::Evaluation => "evaluation",
             Stage::Write => "writing",
         }

@@ -230,6 +230,12 @@ impl SessionBuilder {
         self.settings.max_batch = n;
         self
     }
+    /// Edit an existing terrain (`stages::editing`): only the edit's cells are made
+    /// anew and joined to its base; the sketch must be of the base's size.
+    pub fn edit(mut self, edit: crate::stages::editing::Edit) -> Self {
+        self.settings.edit = Some(std::sync::Arc::new(edit));
+        self
+    }
     /// Writes the terrain to `path` (format by extension) and nothing else.
     pub fn terrain_file(self, path: impl Into<PathBuf>) -> Self {
         self.outputs(OutputFiles { terrain: path.into(), ..Default::default() })
@@ -295,6 +301,14 @@ impl SessionBuilder {
             (_, sketch) => sketch,
         };
         let (width, height) = sketch.size();
+        if let Some(e) = &cfg.edit {
+            if (e.base.width, e.base.height) != (width, height) {
+                return invalid(format!(
+                    "the sketch is {width} x {height} cells and the terrain to edit {} x {} (grown by --extend where asked): give a sketch of the terrain's size",
+                    e.base.width, e.base.height
+                ));
+            }
+        }
         let exemplars = match self.exemplars {
             None => return invalid("no exemplars given".into()),
             Some(e) => e,

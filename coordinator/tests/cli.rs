@@ -723,3 +723,103 @@ fn texture_masks_are_written_beside_the_terrain_at_its_size() {
     let flow = image::open(d.join("masks/flow.png")).unwrap().into_luma16();
     assert!(splat.pixels().zip(flow.pixels()).all(|(s, f)| s.0[0] == f.0[0]));
 }
+
+#[test]
+fn editing_remakes_only_the_masked_cells_and_extending_keeps_the_old_ones() {
+    let d = tmp("editing");
+    let sketch = small_sketch(&d);
+    let gen = |kind: &str, name: &str, seed: u64| {
+        format!("[[generator]]\ngenerator = \"{kind}\"\n[generator.params]\nname = \"{name}\"\nwidth = 384\nheight = 384\ncell_size_m = 90\nseed = {seed}\nwavelength_cells = 64\noctaves = 7\ngain = 0.5\nlacunarity = 2\nrelief_m = 1600\nbase_m = 300\n")
+    };
+    let m = d.join("generated.toml");
+    std::fs::write(&m, gen("ridged", "crests", 1) + &gen("warped", "folds", 2)).unwrap();
+    let synth = |extra: &[&str], out: &str| {
+        let o = bin()
+            .args(["synth", "--patch-size", "32", "--exemplars"])
+            .arg(&m)
+            .arg("--cache-dir")
+            .arg(d.join("cache"))
+            .arg("--out")
+            .arg(d.join(out))
+            .args(extra)
+            .output()
+            .unwrap();
+        (o.status.success(), String::from_utf8_lossy(&o.stderr).into_owned())
+    };
+    let read = |f: &str| ridgeline_terrain::dem_formats::read_dem(&d.join(f), None, 4096).unwrap().heights;
+    let (ok, e) = synth(&["--sketch", sketch.to_str().unwrap(), "--seed", "5"], "base.tif");
+    assert!(ok, "{e}");
+    // a mask: a disc in the middle of the 192 x 160 terrain
+    let mask = image::GrayImage::from_fn(192, 160, |x, y| {
+        let (dx, dy) = (x as f32 - 96.0, y as f32 - 80.0);
+        image::Luma([if dx * dx + dy * dy < 45.0 * 45.0 { 255 } else { 0 }])
+    });
+    mask.save(d.join("mask.png")).unwrap();
+    let edit = ["--base", d.join("base.tif").to_str().unwrap(), "--mask", d.join("mask.png").to_str().unwrap()].map(String::from);
+    let edit: Vec<&str> = edit.iter().map(|s| s.as_str()).collect();
+    let report = d.join("edited.json");
+    let (ok, e) = synth(&[&edit[..], &["--seed", "9", "--report", report.to_str().unwrap()]].concat(), "edited.tif");
+    assert!(ok, "{e}");
+    let (base, edited) = (read("base.tif"), read("edited.tif"));
+    let masked = |i: usize| mask.as_raw()[i] > 127;
+    let (mut changed, mut inside) = (0, 0);
+    for i in 0..base.data.len() {
+        if masked(i) {
+            inside += 1;
+            changed += usize::from((edited.data[i] - base.data[i]).abs() > 1.0);
+        } else {
+            assert_eq!(edited.data[i].to_bits(), base.data[i].to_bits(), "cell {i} outside the mask is the base's");
+        }
+    }
+    assert!(changed > inside / 2, "the masked cells are made anew: {changed} of {inside}");
+    // no wall where the edit meets the base: the steps across the mask's edge are like the base's own
+    let steps = |keep: &dyn Fn(usize) -> bool, g: &ridgeline_terrain::grid::Heightfield| {
+        let mut s: Vec<f32> = (0..g.data.len() - 1)
+            .filter(|&i| i % g.width != g.width - 1 && keep(i))
+            .map(|i| (g.data[i + 1] - g.data[i]).abs())
+            .collect();
+        s.sort_by(f32::total_cmp);
+        s[s.len() * 95 / 100]
+    };
+    let across = steps(&|i| masked(i) != masked(i + 1), &edited);
+    let within = steps(&|_| true, &base);
+    assert!(across < 2.0 * within, "95th percentile step across the edge {across} m, within the base {within} m");
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+    assert!(r["edit"]["edited_cells"].as_u64().unwrap() == inside as u64, "{}", r["edit"]);
+    // the same edit again: the same bytes
+    let (ok, e) = synth(&[&edit[..], &["--seed", "9"]].concat(), "again.tif");
+    assert!(ok, "{e}");
+    assert_eq!(std::fs::read(d.join("again.tif")).unwrap(), std::fs::read(d.join("edited.tif")).unwrap());
+
+    // grown by 32 cells left and 16 at the bottom: the old cells unchanged
+    let (ok, e) = synth(&["--base", d.join("base.tif").to_str().unwrap(), "--extend", "32,0,0,16"], "grown.tif");
+    assert!(ok, "{e}");
+    let grown = read("grown.tif");
+    assert_eq!((grown.width, grown.height), (224, 176));
+    for y in 0..160 {
+        for x in 0..192 {
+            assert_eq!(grown.get(x + 32, y).to_bits(), base.get(x, y).to_bits(), "({x}, {y}) kept");
+        }
+    }
+    assert!(grown.data.iter().all(|v| v.is_finite()));
+
+    // what cannot be an edit is refused, naming the file, before any output is written
+    image::GrayImage::new(192, 160).save(d.join("black.png")).unwrap();
+    let (ok, e) =
+        synth(&["--base", d.join("base.tif").to_str().unwrap(), "--mask", d.join("black.png").to_str().unwrap()], "x.tif");
+    assert!(!ok && e.contains("black.png") && e.contains("selects no cell"), "{e}");
+    image::GrayImage::new(50, 50).save(d.join("small.png")).unwrap();
+    let (ok, e) =
+        synth(&["--base", d.join("base.tif").to_str().unwrap(), "--mask", d.join("small.png").to_str().unwrap()], "x.tif");
+    assert!(!ok && e.contains("small.png") && e.contains("50 x 50"), "{e}");
+    let (ok, e) = synth(&["--base", sketch.to_str().unwrap(), "--extend", "8,8,8,8"], "x.tif");
+    assert!(!ok && e.contains("sketch.png") && e.contains("float TIFF"), "{e}");
+    let (ok, e) = synth(&["--base", d.join("base.tif").to_str().unwrap()], "x.tif");
+    assert!(!ok && e.contains("--mask, --changed-from or --extend"), "{e}");
+    let (ok, e) = synth(&["--base", d.join("base.tif").to_str().unwrap(), "--extend", "8,8"], "x.tif");
+    assert!(!ok && e.contains("four numbers"), "{e}");
+    let (ok, e) = synth(&edit, "base.tif");
+    assert!(!ok && e.contains("base terrain"), "{e}");
+    assert!(!d.join("x.tif").exists());
+    assert_eq!(read("base.tif").data.len(), base.data.len());
+}

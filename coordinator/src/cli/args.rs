@@ -137,9 +137,32 @@ pub struct WorkerArgs {
 pub struct SynthArgs {
     /// Sketch: a PNG (background 128, white strokes = ridges, black strokes = valleys)
     /// or a vector sketch (.json: {"width", "height", "strokes": [{"pen", "width",
-    /// "points", "widths"?, "elevations"?}]}).
-    #[arg(long)]
-    pub sketch: PathBuf,
+    /// "points", "widths"?, "elevations"?}]}). With `--base` it may be left out (no
+    /// strokes: hole filling alone makes the edited cells).
+    #[arg(long, required_unless_present = "base")]
+    pub sketch: Option<PathBuf>,
+    /// Edit an existing terrain (a float TIFF in metres, as `--out terrain.tif`
+    /// writes, or .asc/.hgt): only the cells `--mask`, `--changed-from` or `--extend`
+    /// select are made anew and joined to it without a seam; every other cell is the
+    /// base's, bit for bit.
+    #[arg(long, value_name = "TERRAIN")]
+    pub base: Option<PathBuf>,
+    /// With `--base`: a PNG of the base's size, white (above 127) where the terrain is
+    /// made anew.
+    #[arg(long, requires = "base", conflicts_with_all = ["changed_from", "extend"])]
+    pub mask: Option<PathBuf>,
+    /// With `--base`: the sketch the base was made from; the terrain is made anew
+    /// within a patch of every cell where `--sketch` differs from it.
+    #[arg(long, value_name = "SKETCH", requires = "base", conflicts_with = "extend")]
+    pub changed_from: Option<PathBuf>,
+    /// With `--base`: grow the terrain by LEFT,TOP,RIGHT,BOTTOM cells (the sketch,
+    /// when given, is of the grown size); the old cells are kept.
+    #[arg(long, value_name = "L,T,R,B", requires = "base")]
+    pub extend: Option<String>,
+    /// Width in cells of the band inside the edited area where the new terrain fades
+    /// into the base (default: a quarter patch).
+    #[arg(long, requires = "base", value_parser = clap::value_parser!(u32).range(0..=4096))]
+    pub blend: Option<u32>,
     /// Exemplar library: a folder of DEMs (.png, .tif, .hgt, .asc; a dems.csv may give
     /// cell_size_m and vertical_unit per file) or a manifest (.toml or .json).
     #[arg(long)]

@@ -22,7 +22,12 @@
 //! 8. [`erode`] — fluvial erosion, when asked for (`--erode STRENGTH`);
 //! 9. conditioning — depressions breached so the valleys drain
 //!    ([`drainage::breach_depressions`]), the elevation range held
-//!    ([`large_scale::hold_range`]).
+//!    ([`large_scale::hold_range`]);
+//! 10. [`editing::join`] — on an existing terrain (`--base`), only the edited cells
+//!     are kept, joined to the old terrain without a seam. Such a job starts from a
+//!     canvas that holds the old terrain outside the edit ([`Canvas::seeded`]), so
+//!     patches and fills match and merge against it, and has no large-scale target of
+//!     its own (stages 3 and 9 are left out: the levels come from the old terrain).
 //!
 //! Stages 3 and 9 are the coarse-to-fine form (`--no-large-scale` leaves them out).
 //!
@@ -47,6 +52,7 @@ use crate::canvas::Canvas;
 use crate::progress::Stage;
 use crate::stages::coarse_level::{self, CoarseJob};
 use crate::stages::drainage::{breach_depressions, ridge_crests};
+use crate::stages::editing;
 use crate::stages::erosion::{erode, STEPS as EROSION_STEPS};
 use crate::stages::exemplars::{self, Backend, Fleet, LoadSettings, COARSE_LEVEL};
 use crate::stages::feature_placement::{place_features, PlacementSettings};
@@ -113,7 +119,8 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
     let (sk, sketch_image) = run.run(Stage::SketchFeatures, |cx| Ok(cx.install(|| sketch::analyse_input(job.sketch, p))))?;
 
     let library_at = |level: usize| LibraryForm::of(&shards.iter().flat_map(|s| s.sources(level)).collect::<Vec<_>>());
-    let form = match (set.large_scale, library_at(OUTPUT_LEVEL)) {
+    // an edit takes its levels from the terrain around it, not from a target of its own
+    let form = match (set.large_scale && set.edit.is_none(), library_at(OUTPUT_LEVEL)) {
         (true, Some(lib)) => Some(run.run(Stage::LargeScale, |_| Ok(large_scale::plan(&sk, &lib, p, set.elevation_range)))?),
         _ => None,
     };
@@ -149,7 +156,10 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
 
     let ups = run.run(Stage::UserPatches, |_| Ok(user_patches(&sk, p)))?;
 
-    let mut canvas = Canvas::new(w, h, p);
+    let mut canvas = match &set.edit {
+        Some(e) => Canvas::seeded(&e.base, |i| !e.mask.data[i], p),
+        None => Canvas::new(w, h, p),
+    };
     canvas.levels_given = form.is_some();
     let placement = run.run(Stage::FeaturePlacement, |cx| {
         let progress = |done: u64, total: u64, c: &Canvas| {
@@ -209,6 +219,11 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
         None => None,
     };
 
+    let edit = match &set.edit {
+        Some(e) => Some(run.run(Stage::Editing, |cx| Ok(cx.install(|| editing::join(&mut canvas.heights, e))))?),
+        None => None,
+    };
+
     let report = SynthReport::of_job(JobResults {
         settings: set,
         cell_size_m: ex.cell_size_m,
@@ -223,6 +238,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
         sketch_fit,
         conditioning,
         erosion,
+        edit,
     });
     let out = SynthOutput { sketch_image, features_only, sketch: sk, user_patches: ups, canvas, form };
     Ok((out, report))

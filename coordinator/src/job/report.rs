@@ -7,6 +7,7 @@ use super::settings::JobSettings;
 use crate::canvas::Canvas;
 use crate::evaluation::quality::{adherence, seam_score, Adherence, SeamScore};
 use crate::stages::drainage::DrainageStats;
+use crate::stages::editing::EditStats;
 use crate::stages::erosion::ErosionStats;
 use crate::stages::feature_placement::PlacementStats;
 use crate::stages::hole_filling::FillStats;
@@ -58,6 +59,9 @@ pub struct SynthReport {
     /// What fluvial erosion did, when asked for (`--erode`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub erosion: Option<ErosionStats>,
+    /// What the join into an existing terrain did (`--base`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub edit: Option<EditStats>,
     /// Sketch adherence of the result, per kind: sampled centre-line points whose
     /// cross profile at patch/4 has the kind's shape (a crest for ridges, a floor for
     /// valleys).
@@ -91,6 +95,7 @@ pub struct JobResults<'a> {
     pub sketch_fit: FitStats,
     pub conditioning: Option<Conditioning>,
     pub erosion: Option<ErosionStats>,
+    pub edit: Option<EditStats>,
 }
 
 /// What the large-scale stages did.
@@ -132,6 +137,7 @@ impl SynthReport {
             sketch_fit: r.sketch_fit,
             large_scale: r.conditioning,
             erosion: r.erosion,
+            edit: r.edit,
             adherence: sk.lines.map(|kind, g| adherence(&canvas.heights, g, kind, set.patch as f32 / 4.0, 4, 8, &bounds)),
             seams: seam_score(&canvas.heights, &canvas.provenance.data),
             shards: ShardReport::of_shards(r.shards, r.times_before),

@@ -44,6 +44,9 @@ pub struct JobSettings {
     pub elevation_range: Option<[f32; 2]>,
     /// Fluvial erosion's strength (`stages::erosion`; `None`, the default: none).
     pub erode: Option<f32>,
+    /// An existing terrain and the cells to make anew (`stages::editing`; `None`: a
+    /// terrain from nothing).
+    pub edit: Option<std::sync::Arc<crate::stages::editing::Edit>>,
 }
 
 impl Default for JobSettings {
@@ -64,6 +67,7 @@ impl Default for JobSettings {
             large_scale: true,
             elevation_range: None,
             erode: None,
+            edit: None,
         }
     }
 }

@@ -3,13 +3,15 @@
 //! target (and on large outputs the whole synthesis first at a [`coarse_level`]),
 //! [`user_patches`], [`feature_placement`] (rounds 1 and 2, with [`selection`]),
 //! [`hole_filling`] (with its [`base_surface`] and [`ragged_edge`]), [`sketch_fit`]
-//! and the [`drainage`] conditioning. Round 2 and hole filling share
+//! and the [`drainage`] conditioning; a job on an existing terrain ends with
+//! [`editing`], which joins the new cells into it. Round 2 and hole filling share
 //! [`window_scoring`] (open a window, rank, cut, merge) and [`merge`] (graph-cut
 //! seam, Shepard correction, Poisson solve).
 
 pub mod base_surface;
 pub mod coarse_level;
 pub mod drainage;
+pub mod editing;
 pub mod erosion;
 pub mod exemplars;
 pub mod feature_placement;

@@ -1,0 +1,260 @@
+//! The editing stage (issue 27, item 3; Gain et al. 2015 keep terrain edits local):
+//! a job given an existing terrain (`synth --base T.tif`) synthesises as usual and
+//! then keeps only the area asked for — a painted mask (`--mask M.png`), the
+//! neighbourhood of strokes that changed since an earlier sketch (`--changed-from`),
+//! or the new border of a grown terrain (`--extend`) — and joins it to the old
+//! terrain without a seam:
+//!
+//! 1. the offset `base - new` on the cells kept is carried into the edited area as a
+//!    membrane (Laplace) interpolation, seamless cloning after Pérez et al. 2003, so
+//!    the new terrain meets the old one's levels along the whole boundary;
+//! 2. within `blend` cells of the boundary (inside the edited area, where the base has
+//!    heights) the corrected terrain fades into the base by a smoothstep of the
+//!    distance, so detail and slope hand over gradually;
+//! 3. every cell outside the edited area is the base's, bit for bit.
+//!
+//! Our own code: no crate composites heightfields, and the membrane is the one in
+//! `crate::solvers::membrane`.
+
+use crate::solvers::membrane::Membrane;
+use ridgeline_terrain::grid::{distance_transform_by, Grid, Heightfield};
+
+/// An edit of an existing terrain: the base's heights (NaN where it has none, the
+/// new border of `--extend`) and the cells to re-synthesise.
+#[derive(Debug, Clone)]
+pub struct Edit {
+    pub base: Heightfield,
+    /// True where the terrain is made anew.
+    pub mask: Grid<bool>,
+    /// Width of the blend band inside the edited area, in cells.
+    pub blend: usize,
+}
+
+/// What the editing stage did.
+#[derive(Debug, Clone, Copy, Default, serde::Serialize)]
+pub struct EditStats {
+    /// Cells made anew, and of those the ones in the blend band.
+    pub edited_cells: usize,
+    pub band_cells: usize,
+    /// The largest offset between the new terrain and the base along the boundary,
+    /// which the join took out (metres).
+    pub boundary_offset_m: f32,
+}
+
+impl Edit {
+    /// An edit of `base` where `mask` is set. The base must have heights wherever the
+    /// mask is clear.
+    pub fn new(base: Heightfield, mask: Grid<bool>, blend: usize) -> Result<Edit, String> {
+        if (base.width, base.height) != (mask.width, mask.height) {
+            return Err(format!(
+                "the mask is {} x {} cells, the base terrain {} x {}: give a mask of the terrain's size",
+                mask.width, mask.height, base.width, base.height
+            ));
+        }
+        if let Some(i) = (0..base.data.len()).find(|&i| !mask.data[i] && !base.data[i].is_finite()) {
+            return Err(format!("the base terrain has no height at ({}, {}), outside the mask", i % base.width, i / base.width));
+        }
+        if !mask.data.iter().any(|&m| m) {
+            return Err("the mask selects no cell: paint the area to re-synthesise white".into());
+        }
+        Ok(Edit { base, mask, blend })
+    }
+
+    /// The edit that grows `base` by `[left, top, right, bottom]` cells: the new
+    /// border is made, the old cells kept.
+    pub fn extend(base: &Heightfield, by: [usize; 4], blend: usize) -> Result<Edit, String> {
+        let [l, t, r, b] = by;
+        if l + t + r + b == 0 {
+            return Err("--extend 0,0,0,0 grows nothing: give the cells to add on each side".into());
+        }
+        let (w, h) = (base.width + l + r, base.height + t + b);
+        let mut heights = Grid::new(w, h, f32::NAN);
+        let mut mask = Grid::new(w, h, true);
+        for y in 0..base.height {
+            for x in 0..base.width {
+                heights.set(x + l, y + t, base.get(x, y));
+                mask.set(x + l, y + t, false);
+            }
+        }
+        Edit::new(heights, mask, blend)
+    }
+
+    /// The edit of the cells within `reach` of where the sketch `new` differs from
+    /// `old` (both rasterised at the terrain's size).
+    pub fn changed(base: Heightfield, old: &Grid<u8>, new: &Grid<u8>, reach: usize, blend: usize) -> Result<Edit, String> {
+        if (old.width, old.height) != (new.width, new.height) {
+            return Err(format!(
+                "the earlier sketch is {} x {}, this one {} x {}: they must be of one size",
+                old.width, old.height, new.width, new.height
+            ));
+        }
+        let changed: Vec<bool> = old.data.iter().zip(&new.data).map(|(a, b)| a != b).collect();
+        if !changed.iter().any(|&c| c) {
+            return Err("the sketch is the same as the earlier one: nothing to re-synthesise".into());
+        }
+        let d = distance_to(&changed, new.width, new.height);
+        let mask = Grid::from_vec(new.width, new.height, d.iter().map(|&d| d <= reach as f32).collect());
+        Edit::new(base, mask, blend)
+    }
+}
+
+/// Joins the new terrain `h` into the edit's base (see the module header): cells
+/// outside the mask become the base's, bit for bit.
+pub fn join(h: &mut Heightfield, edit: &Edit) -> EditStats {
+    let (w, hh) = (h.width, h.height);
+    assert_eq!((w, hh), (edit.base.width, edit.base.height), "the session checks the sizes");
+    let kept: Vec<bool> = edit.mask.data.iter().map(|&m| !m).collect();
+    let mut stats = EditStats { edited_cells: edit.mask.data.iter().filter(|&&m| m).count(), ..Default::default() };
+    // the offset field, solved over the edited area's bounding box grown by one cell
+    let (mut x0, mut y0, mut x1, mut y1) = (w, hh, 0, 0);
+    for (i, _) in edit.mask.data.iter().enumerate().filter(|(_, &m)| m) {
+        let (x, y) = (i % w, i / w);
+        (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x), y1.max(y));
+    }
+    let (x0, y0, x1, y1) = (x0.saturating_sub(1), y0.saturating_sub(1), (x1 + 1).min(w - 1), (y1 + 1).min(hh - 1));
+    let (bw, bh) = (x1 - x0 + 1, y1 - y0 + 1);
+    let mut fixed = vec![f64::NAN; bw * bh];
+    for by in 0..bh {
+        for bx in 0..bw {
+            let i = (y0 + by) * w + x0 + bx;
+            if kept[i] {
+                let d = edit.base.data[i] as f64 - h.data[i] as f64;
+                fixed[by * bw + bx] = d;
+                if neighbours(i, w, hh).any(|n| edit.mask.data[n]) {
+                    stats.boundary_offset_m = stats.boundary_offset_m.max(d.abs() as f32);
+                }
+            }
+        }
+    }
+    let offset = if fixed.iter().any(|v| !v.is_nan()) {
+        let (anchor, lambda) = (vec![0f64; bw * bh], vec![1e-9f64; bw * bh]);
+        Membrane { w: bw, h: bh, fixed: &fixed, anchor: &anchor, lambda: &lambda }.solve(1e-7)
+    } else {
+        vec![0f64; bw * bh]
+    };
+    let dist = distance_to(&kept, w, hh);
+    for by in 0..bh {
+        for bx in 0..bw {
+            let i = (y0 + by) * w + x0 + bx;
+            if !edit.mask.data[i] {
+                continue;
+            }
+            let new = h.data[i] as f64 + offset[by * bw + bx];
+            let base = edit.base.data[i] as f64;
+            let t = if edit.blend > 0 && base.is_finite() { (dist[i] as f64 / edit.blend as f64).min(1.0) } else { 1.0 };
+            if t < 1.0 {
+                stats.band_cells += 1;
+            }
+            let s = t * t * (3.0 - 2.0 * t);
+            h.data[i] = if s < 1.0 { (base + (new - base) * s) as f32 } else { new as f32 };
+        }
+    }
+    for (i, v) in h.data.iter_mut().enumerate() {
+        if kept[i] {
+            *v = edit.base.data[i];
+        }
+    }
+    tracing::info!(?stats, "edit joined to the base terrain");
+    stats
+}
+
+fn neighbours(i: usize, w: usize, h: usize) -> impl Iterator<Item = usize> {
+    let (x, y) = (i % w, i / w);
+    [(x > 0).then(|| i - 1), (x + 1 < w).then(|| i + 1), (y > 0).then(|| i - w), (y + 1 < h).then(|| i + w)].into_iter().flatten()
+}
+
+/// Euclidean distance in cells from each cell to the nearest cell where `from` is
+/// set (0 there; infinite where none is set).
+fn distance_to(from: &[bool], w: usize, h: usize) -> Vec<f32> {
+    distance_transform_by(w, h, |i| from[i]).data
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn hills(w: usize, h: usize, phase: f32, level: f32) -> Heightfield {
+        let data = (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as f32, (i / w) as f32);
+                level + 300.0 * (x / 9.0 + phase).sin() * (y / 13.0 - phase).cos()
+            })
+            .collect();
+        Grid::from_vec(w, h, data)
+    }
+
+    #[test]
+    fn cells_outside_the_mask_stay_bit_for_bit_and_the_join_has_no_step() {
+        let (w, h) = (96, 80);
+        let base = hills(w, h, 0.0, 1000.0);
+        // the new terrain stands 700 m higher and has other hills
+        let mut new = hills(w, h, 1.3, 1700.0);
+        let mask = Grid::from_vec(w, h, (0..w * h).map(|i| (20..70).contains(&(i % w)) && (15..60).contains(&(i / w))).collect());
+        let edit = Edit::new(base.clone(), mask.clone(), 6).unwrap();
+        let stats = join(&mut new, &edit);
+        for i in 0..w * h {
+            if !mask.data[i] {
+                assert_eq!(new.data[i].to_bits(), base.data[i].to_bits(), "cell {i} kept");
+            }
+        }
+        assert_eq!(stats.edited_cells, 50 * 45);
+        assert!(stats.boundary_offset_m > 300.0 && stats.band_cells > 0, "{stats:?}");
+        // across the boundary, no step larger than the base's own steepest between neighbours
+        let step = |g: &Heightfield, a: usize, b: usize| (g.data[a] - g.data[b]).abs();
+        let inside_max = (0..w * h - 1).filter(|i| i % w != w - 1).map(|i| step(&base, i, i + 1)).fold(0f32, f32::max);
+        for i in 0..w * h - 1 {
+            if i % w != w - 1 && mask.data[i] != mask.data[i + 1] {
+                assert!(
+                    step(&new, i, i + 1) <= 1.5 * inside_max,
+                    "step {} at {i}, base's largest {inside_max}",
+                    step(&new, i, i + 1)
+                );
+            }
+        }
+        // the middle of the edited area is the new terrain's shifted by the offset carried
+        // in from the boundary, which no more than the largest offset there (a membrane
+        // has no extremum inside)
+        let c = 40 * w + 45;
+        let shift = (new.data[c] - hills(w, h, 1.3, 1700.0).data[c]).abs();
+        assert!(shift > 100.0 && shift <= stats.boundary_offset_m + 1.0, "shift {shift}, {stats:?}");
+    }
+
+    #[test]
+    fn extending_keeps_the_old_cells_and_makes_the_border() {
+        let base = hills(40, 30, 0.0, 500.0);
+        let edit = Edit::extend(&base, [8, 0, 4, 6], 4).unwrap();
+        assert_eq!((edit.base.width, edit.base.height), (52, 36));
+        let mut new = hills(52, 36, 2.0, 900.0);
+        let stats = join(&mut new, &edit);
+        for y in 0..30 {
+            for x in 0..40 {
+                assert_eq!(new.get(x + 8, y).to_bits(), base.get(x, y).to_bits());
+            }
+        }
+        assert_eq!(stats.edited_cells, 52 * 36 - 40 * 30);
+        assert_eq!(stats.band_cells, 0, "the base has no heights in the new border to blend with");
+        // the border meets the old edge: the first new column is within a step of the old one
+        for y in 0..30 {
+            assert!((new.get(7, y) - new.get(8, y)).abs() < 120.0, "row {y}: {} vs {}", new.get(7, y), new.get(8, y));
+        }
+        assert!(new.data.iter().all(|v| v.is_finite()));
+        assert!(Edit::extend(&base, [0; 4], 4).unwrap_err().contains("grows nothing"));
+    }
+
+    #[test]
+    fn a_changed_sketch_edits_the_neighbourhood_of_its_change_and_bad_edits_are_refused() {
+        let base = hills(64, 64, 0.0, 800.0);
+        let old = Grid::new(64, 64, 0u8);
+        let mut new = old.clone();
+        new.set(10, 10, 1);
+        let edit = Edit::changed(base.clone(), &old, &new, 5, 2).unwrap();
+        assert!(edit.mask.get(10, 15) && edit.mask.get(14, 12) && !edit.mask.get(10, 17) && !edit.mask.get(40, 40));
+        assert!(Edit::changed(base.clone(), &old, &old, 5, 2).unwrap_err().contains("the same"));
+        let e = Edit::new(base.clone(), Grid::new(10, 10, true), 2).unwrap_err();
+        assert!(e.contains("10 x 10") && e.contains("64 x 64"), "{e}");
+        assert!(Edit::new(base.clone(), Grid::new(64, 64, false), 2).unwrap_err().contains("no cell"));
+        let mut holed = base;
+        holed.set(3, 3, f32::NAN);
+        assert!(Edit::new(holed, Grid::new(64, 64, false), 2).unwrap_err().contains("(3, 3)"));
+    }
+}
