@@ -245,6 +245,7 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
         .elevation_range(range)
         .large_scale(!a.no_large_scale)
         .erode(a.erode)
+        .wrap(a.wrap)
         .exemplars(Exemplars::library(&a.exemplars))
         .backend(backend)
         .patch_size(a.patch_size)

@@ -32,7 +32,8 @@ pub enum Stage {
     Erosion,
     /// Depressions breached so the valleys drain, and the elevation range held.
     Conditioning,
-    /// On an existing terrain (`--base`), the new cells joined into it.
+    /// The new cells joined into an existing terrain (`--base`), or the band around a
+    /// tileable terrain's wrap-around seams made anew (`--wrap`).
     Editing,
     /// Realism figures against the sources (when a report is asked for).
     Evaluation,
@@ -90,7 +91,7 @@ impl Stage {
             Stage::SketchFit => "sketch fit",
             Stage::Erosion => "erosion",
             Stage::Conditioning => "drainage and range",
-            Stage::Editing => "joining the edit",
+            Stage::Editing => "editing and wrapping",
             Stage::Evaluation => "evaluation",
             Stage::Write => "writing",
         }

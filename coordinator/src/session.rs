@@ -236,6 +236,12 @@ impl SessionBuilder {
         self.settings.edit = Some(std::sync::Arc::new(edit));
         self
     }
+    /// Make the terrain tileable: periodic on both axes, no seam where it wraps
+    /// (`stages::editing`). Each side must be at least two patches.
+    pub fn wrap(mut self, on: bool) -> Self {
+        self.settings.wrap = on;
+        self
+    }
     /// Writes the terrain to `path` (format by extension) and nothing else.
     pub fn terrain_file(self, path: impl Into<PathBuf>) -> Self {
         self.outputs(OutputFiles { terrain: path.into(), ..Default::default() })
@@ -301,6 +307,13 @@ impl SessionBuilder {
             (_, sketch) => sketch,
         };
         let (width, height) = sketch.size();
+        if cfg.wrap && (width.min(height) < 2 * cfg.patch || cfg.edit.is_some()) {
+            return invalid(format!(
+                "--wrap: a tileable terrain is made from nothing, at least two patches ({}) on each side; this one is {width} x {height}{}",
+                2 * cfg.patch,
+                if cfg.edit.is_some() { " and edits a base" } else { "" }
+            ));
+        }
         if let Some(e) = &cfg.edit {
             if (e.base.width, e.base.height) != (width, height) {
                 return invalid(format!(

@@ -823,3 +823,60 @@ fn editing_remakes_only_the_masked_cells_and_extending_keeps_the_old_ones() {
     assert!(!d.join("x.tif").exists());
     assert_eq!(read("base.tif").data.len(), base.data.len());
 }
+
+#[test]
+fn a_wrapped_terrain_tiles_with_no_seam_and_keeps_the_rest() {
+    let d = tmp("wrap");
+    let sketch = small_sketch(&d);
+    let m = d.join("generated.toml");
+    std::fs::write(
+        &m,
+        "[[generator]]\ngenerator = \"ridged\"\n[generator.params]\nname = \"crests\"\nwidth = 384\nheight = 384\ncell_size_m = 90\nseed = 3\nwavelength_cells = 64\noctaves = 7\ngain = 0.5\nlacunarity = 2\nrelief_m = 1600\nbase_m = 300\n",
+    )
+    .unwrap();
+    let synth = |extra: &[&str], out: &str| {
+        let o = bin()
+            .args(["synth", "--patch-size", "32", "--seed", "4", "--sketch"])
+            .arg(&sketch)
+            .arg("--exemplars")
+            .arg(&m)
+            .arg("--cache-dir")
+            .arg(d.join("cache"))
+            .arg("--out")
+            .arg(d.join(out))
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        ridgeline_terrain::dem_formats::read_dem(&d.join(out), None, 4096).unwrap().heights
+    };
+    let (plain, wrapped) = (synth(&[], "plain.tif"), synth(&["--wrap"], "wrapped.tif"));
+    let p95 = |mut v: Vec<f32>| {
+        v.sort_by(f32::total_cmp);
+        v[v.len() * 95 / 100]
+    };
+    // the jump from the last column to the first (the last row to the first) against
+    // the steps between neighbours inside the terrain
+    let jumps = |t: &ridgeline_terrain::grid::Heightfield| {
+        let (w, h) = (t.width, t.height);
+        let across_x = p95((0..h).map(|y| (t.get(0, y) - t.get(w - 1, y)).abs()).collect());
+        let across_y = p95((0..w).map(|x| (t.get(x, 0) - t.get(x, h - 1)).abs()).collect());
+        let inside_x =
+            p95((0..h).flat_map(|y| (1..w).map(move |x| (y, x))).map(|(y, x)| (t.get(x, y) - t.get(x - 1, y)).abs()).collect());
+        let inside_y =
+            p95((1..h).flat_map(|y| (0..w).map(move |x| (y, x))).map(|(y, x)| (t.get(x, y) - t.get(x, y - 1)).abs()).collect());
+        (across_x / inside_x, across_y / inside_y)
+    };
+    let (jx, jy) = jumps(&wrapped);
+    assert!(jx < 1.5 && jy < 1.5, "wrapped: the wrap-around jumps are {jx:.2} and {jy:.2} times the steps inside");
+    let (px, py) = jumps(&plain);
+    assert!(px > 3.0 && py > 3.0, "unwrapped, the borders do not meet: {px:.2}, {py:.2}");
+    // a 2 x 2 tiling has no step at the tiles' corners either
+    let (w, h) = (wrapped.width, wrapped.height);
+    let corner = (wrapped.get(0, 0) - wrapped.get(w - 1, h - 1)).abs();
+    assert!(corner < 400.0, "corner jump {corner} m");
+    // away from the seams the terrain is the unwrapped one, bit for bit
+    let same = (0..w * h).filter(|&i| wrapped.data[i].to_bits() == plain.data[i].to_bits()).count();
+    assert!(same * 10 > w * h * 3, "{same} of {} cells kept", w * h);
+    assert_eq!(synth(&["--wrap"], "again.tif").data, wrapped.data, "the same bytes again");
+}

@@ -141,6 +141,10 @@ pub struct SynthArgs {
     /// strokes: hole filling alone makes the edited cells).
     #[arg(long, required_unless_present = "base")]
     pub sketch: Option<PathBuf>,
+    /// Make the terrain tileable: periodic on both axes (column 0 continues the last
+    /// column, row 0 the last row), so copies of it tile with no seam.
+    #[arg(long, conflicts_with = "base")]
+    pub wrap: bool,
     /// Edit an existing terrain (a float TIFF in metres, as `--out terrain.tif`
     /// writes, or .asc/.hgt): only the cells `--mask`, `--changed-from` or `--extend`
     /// select are made anew and joined to it without a seam; every other cell is the

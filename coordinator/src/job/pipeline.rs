@@ -23,7 +23,9 @@
 //! 9. conditioning — depressions breached so the valleys drain
 //!    ([`drainage::breach_depressions`]), the elevation range held
 //!    ([`large_scale::hold_range`]);
-//! 10. [`editing::join`] — on an existing terrain (`--base`), only the edited cells
+//! 10. `--wrap`: the band around the wrap-around seams filled anew on the terrain
+//!     rolled by half its size, joined, rolled back ([`editing::wrap_bands`]);
+//! 11. [`editing::join`] — on an existing terrain (`--base`), only the edited cells
 //!     are kept, joined to the old terrain without a seam. Such a job starts from a
 //!     canvas that holds the old terrain outside the edit ([`Canvas::seeded`]), so
 //!     patches and fills match and merge against it, and has no large-scale target of
@@ -219,6 +221,24 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
         None => None,
     };
 
+    // a tileable terrain: the band around its wrap-around seams filled anew (see
+    // `editing`), against the terrain on both sides
+    let wrap = match set.wrap {
+        true => Some(run.run(Stage::Editing, |cx| {
+            let mut stats = editing::EditStats::default();
+            for ((dx, dy), band) in editing::wrap_bands(w, h, p / 2 + p / 4) {
+                let edit = editing::Edit::new(editing::roll(&canvas.heights, dx, dy), band, p / 4).map_err(SynthError::Config)?;
+                let mut rolled = Canvas::seeded(&edit.base, |i| !edit.mask.data[i], p);
+                let fill = FillSettings { level: OUTPUT_LEVEL, seed: set.seed ^ 0x7772_6170 ^ dx as u64, base: None };
+                fill_holes(&mut rolled, shards, &fill, cx.pool, &|_, _| {}, cx.cancel)?;
+                stats = stats.and(cx.install(|| editing::join(&mut rolled.heights, &edit)));
+                canvas.heights = editing::roll(&rolled.heights, (w - dx) % w, (h - dy) % h);
+            }
+            Ok(stats)
+        })?),
+        false => None,
+    };
+
     let edit = match &set.edit {
         Some(e) => Some(run.run(Stage::Editing, |cx| Ok(cx.install(|| editing::join(&mut canvas.heights, e))))?),
         None => None,
@@ -239,6 +259,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
         conditioning,
         erosion,
         edit,
+        wrap,
     });
     let out = SynthOutput { sketch_image, features_only, sketch: sk, user_patches: ups, canvas, form };
     Ok((out, report))

@@ -62,6 +62,10 @@ pub struct SynthReport {
     /// What the join into an existing terrain did (`--base`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub edit: Option<EditStats>,
+    /// What making the terrain tileable did (`--wrap`): the band re-made around the
+    /// wrap-around seams and the offset the join took out.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub wrap: Option<EditStats>,
     /// Sketch adherence of the result, per kind: sampled centre-line points whose
     /// cross profile at patch/4 has the kind's shape (a crest for ridges, a floor for
     /// valleys).
@@ -96,6 +100,7 @@ pub struct JobResults<'a> {
     pub conditioning: Option<Conditioning>,
     pub erosion: Option<ErosionStats>,
     pub edit: Option<EditStats>,
+    pub wrap: Option<EditStats>,
 }
 
 /// What the large-scale stages did.
@@ -138,6 +143,7 @@ impl SynthReport {
             large_scale: r.conditioning,
             erosion: r.erosion,
             edit: r.edit,
+            wrap: r.wrap,
             adherence: sk.lines.map(|kind, g| adherence(&canvas.heights, g, kind, set.patch as f32 / 4.0, 4, 8, &bounds)),
             seams: seam_score(&canvas.heights, &canvas.provenance.data),
             shards: ShardReport::of_shards(r.shards, r.times_before),

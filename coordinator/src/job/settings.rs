@@ -47,6 +47,8 @@ pub struct JobSettings {
     /// An existing terrain and the cells to make anew (`stages::editing`; `None`: a
     /// terrain from nothing).
     pub edit: Option<std::sync::Arc<crate::stages::editing::Edit>>,
+    /// Make the terrain periodic on both axes (`--wrap`; `stages::editing`).
+    pub wrap: bool,
 }
 
 impl Default for JobSettings {
@@ -68,6 +70,7 @@ impl Default for JobSettings {
             elevation_range: None,
             erode: None,
             edit: None,
+            wrap: false,
         }
     }
 }

@@ -13,6 +13,13 @@
 //!    distance, so detail and slope hand over gradually;
 //! 3. every cell outside the edited area is the base's, bit for bit.
 //!
+//! Tileable terrains (`--wrap`, issue 27 item 4) use the same join: the finished
+//! terrain is rolled by half its size ([`roll`]), so its wrap-around seams cross in the
+//! middle; the cross-shaped band around them ([`wrap_bands`]) is filled anew from the
+//! exemplars against the terrain on both sides and joined (in three passes, so that
+//! no band is cut by the rolled terrain's border); rolled back, column 0 continues column
+//! W-1 and row 0 row H-1, and every cell outside the bands is as before.
+//!
 //! Our own code: no crate composites heightfields, and the membrane is the one in
 //! `crate::solvers::membrane`.
 
@@ -158,6 +165,45 @@ pub fn join(h: &mut Heightfield, edit: &Edit) -> EditStats {
     stats
 }
 
+/// `h` rolled by (dx, dy): cell (x, y) of the result is cell ((x + dx) mod W,
+/// (y + dy) mod H) of `h`; rolling by (W - dx, H - dy) undoes it.
+pub fn roll(h: &Heightfield, dx: usize, dy: usize) -> Heightfield {
+    let (w, hh) = (h.width, h.height);
+    let data = (0..w * hh).map(|i| h.get((i % w + dx) % w, (i / w + dy) % hh)).collect();
+    Grid::from_vec(w, hh, data)
+}
+
+/// The bands that make a `w x h` terrain tileable, each with the roll it is made on:
+/// first, on the terrain rolled by half its size, the cells within `half` of both
+/// wrap-around seams (which cross in the middle), except where a band reaches the
+/// rolled terrain's border (there its two ends would be made apart); then the gap
+/// each band left, with `half` on either side, on the terrain rolled along that
+/// band's seam only, so the gap lies in the middle.
+pub fn wrap_bands(w: usize, h: usize, half: usize) -> [((usize, usize), Grid<bool>); 3] {
+    let near = |v: usize, seam: usize, r: usize| v + r >= seam && v < seam + r;
+    let inside = |v: usize, n: usize| v >= half && v + half < n;
+    let (dx, dy) = (w / 2, h / 2);
+    let (sx, sy) = (w - dx, h - dy);
+    let mask = |f: &dyn Fn(usize, usize) -> bool| Grid::from_vec(w, h, (0..w * h).map(|i| f(i % w, i / w)).collect());
+    [
+        ((dx, dy), mask(&|x, y| (near(x, sx, half) && inside(y, h)) || (near(y, sy, half) && inside(x, w)))),
+        // the horizontal band's gap at the columns next to dx, the vertical band's at the rows next to dy
+        ((0, dy), mask(&|x, y| near(y, sy, half) && near(x, dx, 2 * half))),
+        ((dx, 0), mask(&|x, y| near(x, sx, half) && near(y, dy, 2 * half))),
+    ]
+}
+
+impl EditStats {
+    /// The figures of two joins one after the other.
+    pub fn and(self, o: EditStats) -> EditStats {
+        EditStats {
+            edited_cells: self.edited_cells + o.edited_cells,
+            band_cells: self.band_cells + o.band_cells,
+            boundary_offset_m: self.boundary_offset_m.max(o.boundary_offset_m),
+        }
+    }
+}
+
 fn neighbours(i: usize, w: usize, h: usize) -> impl Iterator<Item = usize> {
     let (x, y) = (i % w, i / w);
     [(x > 0).then(|| i - 1), (x + 1 < w).then(|| i + 1), (y > 0).then(|| i - w), (y + 1 < h).then(|| i + w)].into_iter().flatten()
@@ -239,6 +285,34 @@ mod tests {
         }
         assert!(new.data.iter().all(|v| v.is_finite()));
         assert!(Edit::extend(&base, [0; 4], 4).unwrap_err().contains("grows nothing"));
+    }
+
+    #[test]
+    fn rolling_back_undoes_a_roll_and_the_bands_cover_both_seams_away_from_the_border() {
+        let h = hills(30, 20, 0.4, 100.0);
+        let r = roll(&h, 15, 10);
+        assert_eq!(r.get(15, 10).to_bits(), h.get(0, 0).to_bits());
+        assert_eq!(r.get(14, 9).to_bits(), h.get(29, 19).to_bits());
+        let back = roll(&r, 30 - 15, 20 - 10);
+        assert!(back.data.iter().zip(&h.data).all(|(a, b)| a.to_bits() == b.to_bits()));
+        let [(roll1, first), (roll2, second), (roll3, third)] = wrap_bands(30, 20, 3);
+        assert_eq!((roll1, roll2, roll3), ((15, 10), (0, 10), (15, 0)));
+        // columns 12..18 and rows 7..13 of the rolled terrain: its seams in the middle
+        assert!(first.get(12, 5) && first.get(17, 16) && !first.get(11, 5) && !first.get(18, 5));
+        assert!(first.get(5, 7) && first.get(5, 12) && !first.get(5, 6) && !first.get(5, 13));
+        // ... but no band reaches the border
+        assert!(!first.get(0, 9) && !first.get(2, 9) && first.get(3, 9) && first.get(26, 9) && !first.get(27, 9));
+        assert!(!first.get(14, 0) && !first.get(14, 2) && first.get(14, 3) && first.get(14, 16) && !first.get(14, 17));
+        // the others cover those gaps (columns 0..3 and 27..30 rolled by 15 are 12..18;
+        // rows 0..3 and 17..20 rolled by 10 are 7..13) with room, in the middle
+        for x in 0..30 {
+            assert_eq!(second.get(x, 9), (9..21).contains(&x), "column {x}");
+            assert!(!second.get(x, 0) && !second.get(x, 19));
+        }
+        for y in 0..20 {
+            assert_eq!(third.get(14, y), (4..16).contains(&y), "row {y}");
+            assert!(!third.get(0, y) && !third.get(29, y));
+        }
     }
 
     #[test]
