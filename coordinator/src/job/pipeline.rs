@@ -24,12 +24,14 @@
 //!    ([`drainage::breach_depressions`]), the elevation range held
 //!    ([`large_scale::hold_range`]);
 //! 10. `--wrap`: the band around the wrap-around seams filled anew on the terrain
-//!     rolled by half its size, joined, rolled back ([`editing::wrap_bands`]);
+//!     rolled by half its size, its depressions breached, joined, rolled back
+//!     ([`editing::wrap_bands`]);
 //! 11. [`editing::join`] — on an existing terrain (`--base`), only the edited cells
 //!     are kept, joined to the old terrain without a seam. Such a job starts from a
 //!     canvas that holds the old terrain outside the edit ([`Canvas::seeded`]), so
 //!     patches and fills match and merge against it, and has no large-scale target of
-//!     its own (stages 3 and 9 are left out: the levels come from the old terrain).
+//!     its own (stages 3 and 9 are left out: the levels come from the old terrain;
+//!     its depressions are breached before the join).
 //!
 //! Stages 3 and 9 are the coarse-to-fine form (`--no-large-scale` leaves them out).
 //!
@@ -226,12 +228,19 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
     let wrap = match set.wrap {
         true => Some(run.run(Stage::Editing, |cx| {
             let mut stats = editing::EditStats::default();
+            let crests = ridge_crests(&sk);
             for ((dx, dy), band) in editing::wrap_bands(w, h, p / 2 + p / 4) {
                 let edit = editing::Edit::new(editing::roll(&canvas.heights, dx, dy), band, p / 4).map_err(SynthError::Config)?;
                 let mut rolled = Canvas::seeded(&edit.base, |i| !edit.mask.data[i], p);
                 let fill = FillSettings { level: OUTPUT_LEVEL, seed: set.seed ^ 0x7772_6170 ^ dx as u64, base: None };
                 fill_holes(&mut rolled, shards, &fill, cx.pool, &|_, _| {}, cx.cancel)?;
-                stats = stats.and(cx.install(|| editing::join(&mut rolled.heights, &edit)));
+                // the band's own depressions breached (the terrain is conditioned
+                // already; a breach outside the band is undone by the join)
+                let keep: Vec<bool> = (0..w * h).map(|i| crests[((i / w + dy) % h) * w + (i % w + dx) % w]).collect();
+                stats = stats.and(cx.install(|| {
+                    breach_depressions(&mut rolled.heights, &keep, p);
+                    editing::join(&mut rolled.heights, &edit)
+                }));
                 canvas.heights = editing::roll(&rolled.heights, (w - dx) % w, (h - dy) % h);
             }
             Ok(stats)
@@ -240,7 +249,14 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
     };
 
     let edit = match &set.edit {
-        Some(e) => Some(run.run(Stage::Editing, |cx| Ok(cx.install(|| editing::join(&mut canvas.heights, e))))?),
+        Some(e) => Some(run.run(Stage::Editing, |cx| {
+            Ok(cx.install(|| {
+                // an edit has no conditioning stage of its own: its depressions are
+                // breached here, before the cells outside it are put back
+                breach_depressions(&mut canvas.heights, &ridge_crests(&sk), p);
+                editing::join(&mut canvas.heights, e)
+            }))
+        })?),
         None => None,
     };
 
