@@ -878,5 +878,9 @@ fn a_wrapped_terrain_tiles_with_no_seam_and_keeps_the_rest() {
     // away from the seams the terrain is the unwrapped one, bit for bit
     let same = (0..w * h).filter(|&i| wrapped.data[i].to_bits() == plain.data[i].to_bits()).count();
     assert!(same * 10 > w * h * 3, "{same} of {} cells kept", w * h);
+    // and it drains as the unwrapped one does: the valleys that left across the old
+    // border are breached anew
+    let sinks = |t: &ridgeline_terrain::grid::Heightfield| ridgeline::solvers::hydrology::drainage_shares(t, 5.0).sink_share;
+    assert!(sinks(&wrapped) <= sinks(&plain) + 0.005, "closed basins: {} wrapped, {} unwrapped", sinks(&wrapped), sinks(&plain));
     assert_eq!(synth(&["--wrap"], "again.tif").data, wrapped.data, "the same bytes again");
 }

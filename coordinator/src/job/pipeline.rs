@@ -24,8 +24,9 @@
 //!    ([`drainage::breach_depressions`]), the elevation range held
 //!    ([`large_scale::hold_range`]);
 //! 10. `--wrap`: the band around the wrap-around seams filled anew on the terrain
-//!     rolled by half its size, its depressions breached, joined, rolled back
-//!     ([`editing::wrap_bands`]);
+//!     rolled by half its size, joined, rolled back ([`editing::wrap_bands`]); then
+//!     the tileable terrain's depressions breached as a torus
+//!     ([`drainage::breach_depressions_on_torus`]);
 //! 11. [`editing::join`] — on an existing terrain (`--base`), only the edited cells
 //!     are kept, joined to the old terrain without a seam. Such a job starts from a
 //!     canvas that holds the old terrain outside the edit ([`Canvas::seeded`]), so
@@ -48,14 +49,14 @@
 //! sketch 1 and its centre-line graphs 2; `keep_features_only` adds 4 for the debug
 //! view of the terrain before hole filling.
 
-use super::report::{Conditioning, JobResults, SynthReport};
+use super::report::{Conditioning, JobResults, SynthReport, WrapStats};
 use super::settings::JobSettings;
 use super::stage_runner::StageRunner;
 use super::SynthError;
 use crate::canvas::Canvas;
 use crate::progress::Stage;
 use crate::stages::coarse_level::{self, CoarseJob};
-use crate::stages::drainage::{breach_depressions, ridge_crests};
+use crate::stages::drainage::{breach_depressions, breach_depressions_on_torus, ridge_crests};
 use crate::stages::editing;
 use crate::stages::erosion::{erode, STEPS as EROSION_STEPS};
 use crate::stages::exemplars::{self, Backend, Fleet, LoadSettings, COARSE_LEVEL};
@@ -227,23 +228,19 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
     // `editing`), against the terrain on both sides
     let wrap = match set.wrap {
         true => Some(run.run(Stage::Editing, |cx| {
-            let mut stats = editing::EditStats::default();
-            let crests = ridge_crests(&sk);
+            let mut join = editing::EditStats::default();
             for ((dx, dy), band) in editing::wrap_bands(w, h, p / 2 + p / 4) {
                 let edit = editing::Edit::new(editing::roll(&canvas.heights, dx, dy), band, p / 4).map_err(SynthError::Config)?;
                 let mut rolled = Canvas::seeded(&edit.base, |i| !edit.mask.data[i], p);
                 let fill = FillSettings { level: OUTPUT_LEVEL, seed: set.seed ^ 0x7772_6170 ^ dx as u64, base: None };
                 fill_holes(&mut rolled, shards, &fill, cx.pool, &|_, _| {}, cx.cancel)?;
-                // the band's own depressions breached (the terrain is conditioned
-                // already; a breach outside the band is undone by the join)
-                let keep: Vec<bool> = (0..w * h).map(|i| crests[((i / w + dy) % h) * w + (i % w + dx) % w]).collect();
-                stats = stats.and(cx.install(|| {
-                    breach_depressions(&mut rolled.heights, &keep, p);
-                    editing::join(&mut rolled.heights, &edit)
-                }));
+                join = join.and(cx.install(|| editing::join(&mut rolled.heights, &edit)));
                 canvas.heights = editing::roll(&rolled.heights, (w - dx) % w, (h - dy) % h);
             }
-            Ok(stats)
+            // the valleys that drained across the old border now end in the bands:
+            // breached again, the gullies cut round the seams (see `drainage`)
+            let drainage = cx.install(|| breach_depressions_on_torus(&mut canvas.heights, &ridge_crests(&sk), p));
+            Ok(WrapStats { join, drainage })
         })?),
         false => None,
     };

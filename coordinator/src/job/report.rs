@@ -63,9 +63,10 @@ pub struct SynthReport {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub edit: Option<EditStats>,
     /// What making the terrain tileable did (`--wrap`): the band re-made around the
-    /// wrap-around seams and the offset the join took out.
+    /// wrap-around seams, the offset the join took out, and the depressions breached
+    /// on the torus.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub wrap: Option<EditStats>,
+    pub wrap: Option<WrapStats>,
     /// Sketch adherence of the result, per kind: sampled centre-line points whose
     /// cross profile at patch/4 has the kind's shape (a crest for ridges, a floor for
     /// valleys).
@@ -100,7 +101,16 @@ pub struct JobResults<'a> {
     pub conditioning: Option<Conditioning>,
     pub erosion: Option<ErosionStats>,
     pub edit: Option<EditStats>,
-    pub wrap: Option<EditStats>,
+    pub wrap: Option<WrapStats>,
+}
+
+/// What the wrap stage did.
+#[derive(Debug, Clone, Copy, Default, serde::Serialize)]
+pub struct WrapStats {
+    /// The bands' joins, taken together.
+    pub join: EditStats,
+    /// The tileable terrain's depressions breached as a torus.
+    pub drainage: DrainageStats,
 }
 
 /// What the large-scale stages did.
