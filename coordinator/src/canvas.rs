@@ -154,6 +154,20 @@ impl Canvas {
         c
     }
 
+    /// Takes the provenance of `other`'s cells where `mask` holds, recording the
+    /// placements they came from here (in cell order): a region made anew on a canvas
+    /// of its own (`stages::regions`). The heights are the caller's to take.
+    pub fn take_provenance(&mut self, other: &Canvas, mask: &[bool]) {
+        let mut ids = vec![u32::MAX; other.placements.len()];
+        for i in (0..mask.len()).filter(|&i| mask[i]) {
+            let Some(&pl) = other.provenance.data.get(i).filter(|&&pl| pl != u32::MAX) else { continue };
+            if ids[pl as usize] == u32::MAX {
+                ids[pl as usize] = self.record(other.placements[pl as usize].clone());
+            }
+            self.provenance.data[i] = ids[pl as usize];
+        }
+    }
+
     /// Global coordinates of this canvas's first cell.
     pub fn origin(&self) -> (usize, usize) {
         self.origin

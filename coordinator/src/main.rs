@@ -284,6 +284,14 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
     if let Some(e) = edit {
         builder = builder.edit(e);
     }
+    if let Some(path) = &a.regions {
+        let map = ridgeline::stages::regions::RegionMap::read(path, a.max_side).map_err(|m| anyhow::anyhow!("{m}"))?;
+        builder = builder.input_file("the regions file", path);
+        if let Some(f) = &map.map_file {
+            builder = builder.input_file("the region map", f);
+        }
+        builder = builder.regions(map);
+    }
     if let Some(c) = a.cell_size {
         builder = builder.cell_size(c);
     }

@@ -28,6 +28,8 @@ pub enum Stage {
     HoleFilling,
     /// The final deformation that puts crests on ridge lines and floors on valleys.
     SketchFit,
+    /// Every region but the largest made anew from its own exemplars (`--regions`).
+    Regions,
     /// Fluvial erosion, when asked for (`--erode`); progress counts its steps.
     Erosion,
     /// Depressions breached so the valleys drain, and the elevation range held.
@@ -43,7 +45,7 @@ pub enum Stage {
 
 impl Stage {
     /// Every stage, in order.
-    pub const ALL: [Stage; 13] = [
+    pub const ALL: [Stage; 14] = [
         Stage::Exemplars,
         Stage::SketchFeatures,
         Stage::LargeScale,
@@ -52,6 +54,7 @@ impl Stage {
         Stage::FeaturePlacement,
         Stage::HoleFilling,
         Stage::SketchFit,
+        Stage::Regions,
         Stage::Erosion,
         Stage::Conditioning,
         Stage::Editing,
@@ -70,6 +73,7 @@ impl Stage {
             Stage::FeaturePlacement => "feature_placement",
             Stage::HoleFilling => "hole_filling",
             Stage::SketchFit => "sketch_fit",
+            Stage::Regions => "regions",
             Stage::Erosion => "erosion",
             Stage::Conditioning => "conditioning",
             Stage::Editing => "editing",
@@ -89,6 +93,7 @@ impl Stage {
             Stage::FeaturePlacement => "feature placement",
             Stage::HoleFilling => "hole filling",
             Stage::SketchFit => "sketch fit",
+            Stage::Regions => "regions",
             Stage::Erosion => "erosion",
             Stage::Conditioning => "drainage and range",
             Stage::Editing => "editing and wrapping",

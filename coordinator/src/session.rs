@@ -86,6 +86,8 @@ pub struct SessionBuilder {
     inputs: Vec<(String, PathBuf)>,
     /// The report without its realism figures ([`SessionBuilder::realism_figures`]).
     no_realism: bool,
+    /// Regions with exemplar subsets of their own, resolved in `build`.
+    regions: Option<crate::stages::regions::RegionMap>,
 }
 
 /// A validated job, ready to run.
@@ -236,6 +238,12 @@ impl SessionBuilder {
         self.settings.edit = Some(std::sync::Arc::new(edit));
         self
     }
+    /// Regions with exemplar subsets of their own (`stages::regions`): the map must be
+    /// of the terrain's size and every exemplar it names in the library.
+    pub fn regions(mut self, map: crate::stages::regions::RegionMap) -> Self {
+        self.regions = Some(map);
+        self
+    }
     /// Make the terrain tileable: periodic on both axes, no seam where it wraps
     /// (`stages::editing`). Each side must be at least two patches.
     pub fn wrap(mut self, on: bool) -> Self {
@@ -266,7 +274,7 @@ impl SessionBuilder {
 
     /// Validates the whole job and reads the sketch; nothing is written.
     pub fn build(self) -> Result<Session, SessionError> {
-        let cfg = self.settings;
+        let mut cfg = self.settings;
         cfg.validate()?;
         let invalid = |m: String| Err(SessionError::Invalid(m));
         if let Some(o) = &self.outputs {
@@ -341,6 +349,13 @@ impl SessionBuilder {
                     return invalid(format!("exemplar {}: cell size {c} m: give a positive number of metres", s.name()));
                 }
             }
+        }
+        if let Some(map) = &self.regions {
+            if cfg.edit.is_some() {
+                return invalid(format!("{}: regions make a terrain from nothing; to remake an area of a base from other exemplars, edit it with --mask and those --exemplars", map.what));
+            }
+            let names: Vec<String> = sources.iter().map(|s| s.name()).collect();
+            cfg.regions = Some(Arc::new(map.resolve(&names, (width, height), cfg.patch).map_err(SessionError::Invalid)?));
         }
         match &self.backend {
             #[cfg(feature = "fleet")]

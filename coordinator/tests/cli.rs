@@ -884,3 +884,97 @@ fn a_wrapped_terrain_tiles_with_no_seam_and_keeps_the_rest() {
     assert!(sinks(&wrapped) <= sinks(&plain) + 0.005, "closed basins: {} wrapped, {} unwrapped", sinks(&wrapped), sinks(&plain));
     assert_eq!(synth(&["--wrap"], "again.tif").data, wrapped.data, "the same bytes again");
 }
+
+#[test]
+fn regions_take_their_own_exemplars_and_meet_without_a_step() {
+    let d = tmp("regions");
+    let sketch = small_sketch(&d);
+    let m = d.join("generated.toml");
+    let generator = |kind: &str, name: &str, seed: u32, relief: u32, base: u32| {
+        format!("[[generator]]\ngenerator = \"{kind}\"\n[generator.params]\nname = \"{name}\"\nwidth = 320\nheight = 320\ncell_size_m = 90\nseed = {seed}\nwavelength_cells = 48\noctaves = 7\ngain = 0.5\nlacunarity = 2\nrelief_m = {relief}\nbase_m = {base}\n")
+    };
+    std::fs::write(
+        &m,
+        generator("ridged", "crests", 3, 1800, 400)
+            + &generator("fbm", "downs", 5, 120, 600)
+            + &generator("fbm", "moor", 6, 150, 500),
+    )
+    .unwrap();
+    // the crests in a blob on the left, the rest rolling, with a smoothed edge
+    let map = image::RgbImage::from_fn(192, 160, |x, y| {
+        let r = (((x as f32 - 60.0) / 50.0).powi(2) + ((y as f32 - 80.0) / 65.0).powi(2)).sqrt();
+        let t = ((r - 0.97) / 0.06).clamp(0.0, 1.0);
+        image::Rgb([(220.0 * (1.0 - t)) as u8, (200.0 * t) as u8, 30])
+    });
+    map.save(d.join("map.png")).unwrap();
+    let regions = |crests: &str, blend: u32| {
+        format!("map = \"map.png\"\nblend = {blend}\n[[region]]\nname = \"range\"\ncolour = \"#dc001e\"\nexemplars = [\"{crests}\"]\n[[region]]\nname = \"rolling\"\ncolour = \"#00c81e\"\nexemplars = [\"downs\", \"moor\"]\n")
+    };
+    std::fs::write(d.join("regions.toml"), regions("crests", 16)).unwrap();
+    let synth = |extra: &[&str], out: &str| {
+        bin()
+            .args(["synth", "--patch-size", "32", "--seed", "4", "--sketch"])
+            .arg(&sketch)
+            .arg("--exemplars")
+            .arg(&m)
+            .arg("--cache-dir")
+            .arg(d.join("cache"))
+            .arg("--regions")
+            .arg(d.join("regions.toml"))
+            .arg("--out")
+            .arg(d.join(out))
+            .arg("--report")
+            .arg(d.join(format!("{out}.json")))
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let o = synth(&[], "t.tif");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let t = ridgeline_terrain::dem_formats::read_dem(&d.join("t.tif"), None, 4096).unwrap().heights;
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("t.tif.json")).unwrap()).unwrap();
+    let r = &report["regions"];
+    // each region is made from its own exemplars only (beyond the blend band)
+    let by_name = |n: &str| r["regions"].as_array().unwrap().iter().find(|g| g["name"] == n).unwrap().clone();
+    assert_eq!(by_name("range")["exemplars_used"], serde_json::json!(["crests"]), "{r}");
+    let rolling = by_name("rolling")["exemplars_used"].as_array().unwrap().clone();
+    assert!(!rolling.is_empty() && rolling.iter().all(|e| e == "downs" || e == "moor"), "{r}");
+    // ... so the range is rugged and the rest is not: the local relief (the spread of
+    // each 5 x 5 neighbourhood) deep inside each
+    let tt = &t;
+    let local = |inside: &dyn Fn(f32) -> bool| {
+        let mut v = Vec::new();
+        for y in (10..150).step_by(3) {
+            for x in (10..182).step_by(3) {
+                let r = (((x as f32 - 60.0) / 50.0).powi(2) + ((y as f32 - 80.0) / 65.0).powi(2)).sqrt();
+                if inside(r) {
+                    let n: Vec<f32> = (y - 2..=y + 2).flat_map(|yy| (x - 2..=x + 2).map(move |xx| tt.get(xx, yy))).collect();
+                    v.push(n.iter().cloned().fold(f32::MIN, f32::max) - n.iter().cloned().fold(f32::MAX, f32::min));
+                }
+            }
+        }
+        v.iter().sum::<f32>() / v.len() as f32
+    };
+    let (range, rest) = (local(&|r| r < 0.6), local(&|r| r > 1.5));
+    assert!(range > 2.5 * rest, "local relief {range:.0} m in the range, {rest:.0} m in the rolling region");
+    // and they meet without a step: the steps across the boundary no larger than inside
+    let (across, inside) = (r["boundary_step_p95_m"].as_f64().unwrap(), r["inside_step_p95_m"].as_f64().unwrap());
+    assert!(across > 0.0 && across < 1.5 * inside, "steps across the boundary {across:.1} m, inside {inside:.1} m");
+    // the same bytes on one thread
+    let o = synth(&["--threads", "1"], "one.tif");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let one = ridgeline_terrain::dem_formats::read_dem(&d.join("one.tif"), None, 4096).unwrap().heights;
+    assert_eq!(one.data, t.data, "the same bytes on one thread");
+    // a region naming an exemplar the library has not, or a map of another size, is
+    // refused naming the file, and nothing is written
+    std::fs::write(d.join("regions.toml"), regions("karakoram", 16)).unwrap();
+    let o = synth(&[], "bad.tif");
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && e.contains("regions.toml") && e.contains("'karakoram'") && e.contains("crests"), "{e}");
+    std::fs::write(d.join("regions.toml"), regions("crests", 16)).unwrap();
+    image::RgbImage::new(100, 100).save(d.join("map.png")).unwrap();
+    let o = synth(&[], "bad.tif");
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && e.contains("regions.toml") && e.contains("100 x 100"), "{e}");
+    assert!(!d.join("bad.tif").exists());
+}

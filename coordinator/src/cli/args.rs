@@ -145,6 +145,12 @@ pub struct SynthArgs {
     /// column, row 0 the last row), so copies of it tile with no seam.
     #[arg(long, conflicts_with = "base")]
     pub wrap: bool,
+    /// Regions with exemplars of their own: a TOML file naming a map (a PNG of the
+    /// sketch's size, one colour per region), the blend width across their boundaries
+    /// and, per region, its colour, the library's exemplars it is made from and
+    /// optionally its relief (see the README).
+    #[arg(long, value_name = "REGIONS.toml", conflicts_with = "base")]
+    pub regions: Option<PathBuf>,
     /// Edit an existing terrain (a float TIFF in metres, as `--out terrain.tif`
     /// writes, or .asc/.hgt): only the cells `--mask`, `--changed-from` or `--extend`
     /// select are made anew and joined to it without a seam; every other cell is the

@@ -19,22 +19,25 @@
 //!    (`ShardScorer::score_fill`), tile by tile in colour phases, until no cell is empty;
 //! 7. [`fit_to_sketch`] — a last smooth deformation puts crests on ridge lines and
 //!    floors on valley lines (`--no-sketch-fit` skips it);
-//! 8. [`erode`] — fluvial erosion, when asked for (`--erode STRENGTH`);
-//! 9. conditioning — depressions breached so the valleys drain
-//!    ([`drainage::breach_depressions`]), the elevation range held
-//!    ([`large_scale::hold_range`]);
-//! 10. `--wrap`: the band around the wrap-around seams filled anew on the terrain
+//! 8. [`regions`] — with a region map (`--regions`), stages 5 to 7 are the largest
+//!    region's, from its exemplars alone; every other region is then made anew from
+//!    its own on a canvas seeded with the rest and joined like an edit;
+//! 9. [`erode`] — fluvial erosion, when asked for (`--erode STRENGTH`);
+//! 10. conditioning — depressions breached so the valleys drain
+//!     ([`drainage::breach_depressions`]), the elevation range held
+//!     ([`large_scale::hold_range`]);
+//! 11. `--wrap`: the band around the wrap-around seams filled anew on the terrain
 //!     rolled by half its size, joined, rolled back ([`editing::wrap_bands`]); then
 //!     the tileable terrain's depressions breached as a torus
 //!     ([`drainage::breach_depressions_on_torus`]);
-//! 11. [`editing::join`] — on an existing terrain (`--base`), only the edited cells
+//! 12. [`editing::join`] — on an existing terrain (`--base`), only the edited cells
 //!     are kept, joined to the old terrain without a seam. Such a job starts from a
 //!     canvas that holds the old terrain outside the edit ([`Canvas::seeded`]), so
 //!     patches and fills match and merge against it, and has no large-scale target of
-//!     its own (stages 3 and 9 are left out: the levels come from the old terrain;
+//!     its own (stages 3 and 10 are left out: the levels come from the old terrain;
 //!     its depressions are breached before the join).
 //!
-//! Stages 3 and 9 are the coarse-to-fine form (`--no-large-scale` leaves them out).
+//! Stages 3 and 10 are the coarse-to-fine form (`--no-large-scale` leaves them out).
 //!
 //! The session then evaluates the terrain and writes the outputs (`crate::session`).
 //!
@@ -63,6 +66,7 @@ use crate::stages::exemplars::{self, Backend, Fleet, LoadSettings, COARSE_LEVEL}
 use crate::stages::feature_placement::{place_features, PlacementSettings};
 use crate::stages::hole_filling::{fill_holes, FillSettings};
 use crate::stages::large_scale::{self, hold_range, LibraryForm};
+use crate::stages::regions;
 use crate::stages::sketch::{self, SketchFeatures, SketchInput};
 use crate::stages::sketch_fit::{fit_to_sketch, FitStats};
 use crate::stages::user_patches::{user_patches, UserPatch};
@@ -116,9 +120,24 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
     let load =
         LoadSettings { patch: p, cell_size: set.cell_size, max_side: set.max_side, cache_dir: set.cache_dir.clone(), coarse };
     let what = job.library.map_or_else(|| "(exemplars in memory)".to_string(), |p| p.display().to_string());
-    let ex =
-        run.run(Stage::Exemplars, |cx| Ok(cx.install(|| exemplars::load(job.sources, &what, job.fleet, in_process, &load))?))?;
+    // the shards: one set for the library, or one for each region's subset
+    let (ex, region_shards) = run.run(Stage::Exemplars, |cx| {
+        Ok(cx.install(|| -> Result<_, exemplars::ExemplarsError> {
+            let Some(r) = &set.regions else {
+                return Ok((exemplars::load(job.sources, None, &what, job.fleet, in_process, &load)?, Vec::new()));
+            };
+            let mut sets = vec![Vec::new(); r.regions.len()];
+            for g in r.order() {
+                let named = format!("{what} (region '{}')", r.regions[g].name);
+                sets[g] = exemplars::load(job.sources, Some(&r.regions[g].sources), &named, job.fleet, in_process, &load)?.shards;
+            }
+            let cell_size_m = set.cell_size.or_else(|| exemplars::common_cell_size(job.sources));
+            Ok((exemplars::LoadedExemplars { shards: sets.concat(), cell_size_m }, sets))
+        })?)
+    })?;
     let shards = &ex.shards;
+    // the shards the job's first pass is made from: with regions, the largest region's
+    let first_shards = set.regions.as_ref().map_or(shards, |r| &region_shards[r.order()[0]]);
     let times_before: Vec<ShardTimes> = shards.iter().map(|s| s.times()).collect();
 
     let (sk, sketch_image) = run.run(Stage::SketchFeatures, |cx| Ok(cx.install(|| sketch::analyse_input(job.sketch, p))))?;
@@ -145,11 +164,11 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
                 progress: &|_, _, _| {},
                 cancel: cx.cancel,
             };
-            place_features(&mut c.canvas, &ups, shards, &settings, cx.pool)?;
+            place_features(&mut c.canvas, &ups, first_shards, &settings, cx.pool)?;
             let empty = c.canvas.empty as u64;
             let on_fill = |left: u64, _: &Canvas| cx.progress(empty - left, empty);
             let fill = FillSettings { level: COARSE_LEVEL, seed: set.seed, base: Some(&c.form.target) };
-            fill_holes(&mut c.canvas, shards, &fill, cx.pool, &on_fill, cx.cancel)?;
+            fill_holes(&mut c.canvas, first_shards, &fill, cx.pool, &on_fill, cx.cancel)?;
             if set.fit_sketch {
                 cx.install(|| fit_to_sketch(&mut c.canvas.heights, &c.sketch, p));
             }
@@ -181,7 +200,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
             progress: &progress,
             cancel: cx.cancel,
         };
-        Ok(place_features(&mut canvas, &ups, shards, &settings, cx.pool)?)
+        Ok(place_features(&mut canvas, &ups, first_shards, &settings, cx.pool)?)
     })?;
     run.record("round1_scoring", placement.round1_s);
     let features_only = set.keep_features_only.then(|| canvas.heights.clone());
@@ -198,12 +217,43 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
             cx.placements(c);
         };
         let fill = FillSettings { level: OUTPUT_LEVEL, seed: set.seed, base };
-        Ok(fill_holes(&mut canvas, shards, &fill, cx.pool, &on_fill, cx.cancel)?)
+        Ok(fill_holes(&mut canvas, first_shards, &fill, cx.pool, &on_fill, cx.cancel)?)
     })?;
 
     let sketch_fit = match set.fit_sketch {
         true => run.run(Stage::SketchFit, |cx| Ok(cx.install(|| fit_to_sketch(&mut canvas.heights, &sk, p))))?,
         false => FitStats::default(),
+    };
+
+    // every region but the largest made anew from its own exemplars (see `regions`)
+    let mut regions = match &set.regions {
+        Some(r) => Some(run.run(Stage::Regions, |cx| {
+            let order = r.order();
+            let mut first = regions::stats_of(&canvas, r, order[0], shards);
+            (first.pass_cells, first.user_patches, first.placed, first.fills) =
+                (w * h, ups.len(), placement.placed, filling.fills);
+            let mut stats = vec![first];
+            for (done, &g) in order.iter().enumerate().skip(1) {
+                let pass = regions::RegionPass {
+                    shards: &region_shards[g],
+                    user_patches: &ups,
+                    sketch: &sk,
+                    base,
+                    settings: set,
+                    pool: cx.pool,
+                    cancel: cx.cancel,
+                };
+                stats.push(regions::remake(&mut canvas, r, g, &pass)?);
+                cx.progress(done as u64, order.len() as u64 - 1);
+            }
+            // each region's exemplars as the terrain has them now (a later pass may
+            // have remade an earlier region's cells near their common boundary)
+            for (k, &g) in order.iter().enumerate() {
+                stats[k].exemplars_used = regions::stats_of(&canvas, r, g, shards).exemplars_used;
+            }
+            Ok(regions::RegionsReport { blend: r.blend, regions: stats, ..Default::default() })
+        })?),
+        None => None,
     };
 
     let erosion = match set.erode {
@@ -257,6 +307,10 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
         None => None,
     };
 
+    if let (Some(report), Some(r)) = (regions.as_mut(), &set.regions) {
+        (report.boundary_step_p95_m, report.inside_step_p95_m) = regions::boundary_steps(&canvas.heights, &r.labels);
+    }
+
     let report = SynthReport::of_job(JobResults {
         settings: set,
         cell_size_m: ex.cell_size_m,
@@ -273,6 +327,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
         erosion,
         edit,
         wrap,
+        regions,
     });
     let out = SynthOutput { sketch_image, features_only, sketch: sk, user_patches: ups, canvas, form };
     Ok((out, report))

@@ -12,6 +12,7 @@ use crate::stages::erosion::ErosionStats;
 use crate::stages::feature_placement::PlacementStats;
 use crate::stages::hole_filling::FillStats;
 use crate::stages::large_scale::FormStats;
+use crate::stages::regions::RegionsReport;
 use crate::stages::sketch::SketchFeatures;
 use crate::stages::sketch_fit::FitStats;
 use crate::stages::user_patches::{count_by_kind, UserPatch};
@@ -67,6 +68,10 @@ pub struct SynthReport {
     /// on the torus.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub wrap: Option<WrapStats>,
+    /// What the regions stage did, region by region, and the steps across their
+    /// boundaries against those inside (`--regions`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub regions: Option<RegionsReport>,
     /// Sketch adherence of the result, per kind: sampled centre-line points whose
     /// cross profile at patch/4 has the kind's shape (a crest for ridges, a floor for
     /// valleys).
@@ -102,6 +107,7 @@ pub struct JobResults<'a> {
     pub erosion: Option<ErosionStats>,
     pub edit: Option<EditStats>,
     pub wrap: Option<WrapStats>,
+    pub regions: Option<RegionsReport>,
 }
 
 /// What the wrap stage did.
@@ -154,6 +160,7 @@ impl SynthReport {
             erosion: r.erosion,
             edit: r.edit,
             wrap: r.wrap,
+            regions: r.regions,
             adherence: sk.lines.map(|kind, g| adherence(&canvas.heights, g, kind, set.patch as f32 / 4.0, 4, 8, &bounds)),
             seams: seam_score(&canvas.heights, &canvas.provenance.data),
             shards: ShardReport::of_shards(r.shards, r.times_before),

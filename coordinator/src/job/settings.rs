@@ -49,6 +49,8 @@ pub struct JobSettings {
     pub edit: Option<std::sync::Arc<crate::stages::editing::Edit>>,
     /// Make the terrain periodic on both axes (`--wrap`; `stages::editing`).
     pub wrap: bool,
+    /// Regions with exemplar subsets of their own (`--regions`; `stages::regions`).
+    pub regions: Option<std::sync::Arc<crate::stages::regions::Regions>>,
 }
 
 impl Default for JobSettings {
@@ -71,6 +73,7 @@ impl Default for JobSettings {
             erode: None,
             edit: None,
             wrap: false,
+            regions: None,
         }
     }
 }

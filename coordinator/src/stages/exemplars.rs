@@ -183,11 +183,14 @@ pub enum ExemplarsError {
     Gpu(#[from] ridgeline_worker::GpuError),
 }
 
-/// Loads `sources` into shards: on the `fleet`'s workers when there is one, else into
-/// `parts` in-process shards scored as `gpu` says. `what` names the exemplars in an
-/// error (the library's path).
+/// Loads `sources` (those of them with the ids in `only`, when given: a region's
+/// subset, `stages::regions`) into shards: on the `fleet`'s workers when there is one,
+/// else into `parts` in-process shards scored as `gpu` says. A source's id is its
+/// index in `sources` either way. `what` names the exemplars in an error (the
+/// library's path).
 pub fn load(
     sources: &[Arc<dyn ExemplarSource>],
+    only: Option<&[u32]>,
     what: &str,
     fleet: Option<&Fleet>,
     (gpu, parts): (GpuMode, usize),
@@ -201,7 +204,12 @@ pub fn load(
     if let (Some(f), Some(c)) = (set.coarse, cell) {
         levels.push(LevelSpec { patch: set.patch, out_cell: Some(c * f as f32) });
     }
-    let items: Vec<(u32, Arc<dyn ExemplarSource>)> = sources.iter().enumerate().map(|(i, s)| (i as u32, s.clone())).collect();
+    let items: Vec<(u32, Arc<dyn ExemplarSource>)> = sources
+        .iter()
+        .enumerate()
+        .map(|(i, s)| (i as u32, s.clone()))
+        .filter(|(i, _)| only.is_none_or(|o| o.contains(i)))
+        .collect();
     let shards: Shards = match fleet {
         #[cfg(feature = "fleet")]
         Some(c) => crate::cluster::remote_shards(c, &items, &levels, set.cache_dir.as_deref())?,

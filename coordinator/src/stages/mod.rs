@@ -19,6 +19,7 @@ pub mod hole_filling;
 pub mod large_scale;
 pub mod merge;
 pub mod ragged_edge;
+pub mod regions;
 pub mod selection;
 pub mod sketch;
 pub mod sketch_fit;
