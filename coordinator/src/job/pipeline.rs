@@ -308,7 +308,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
     };
 
     if let (Some(report), Some(r)) = (regions.as_mut(), &set.regions) {
-        (report.boundary_step_p95_m, report.inside_step_p95_m) = regions::boundary_steps(&canvas.heights, &r.labels);
+        regions::judge_boundaries(report, &canvas.heights, r);
     }
 
     let report = SynthReport::of_job(JobResults {

@@ -8,5 +8,6 @@ pub mod graph_cut;
 pub mod hydrology;
 pub mod membrane;
 pub mod poisson;
+pub mod pull_push;
 pub mod total_order;
 pub mod two_level;

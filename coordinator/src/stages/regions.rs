@@ -33,6 +33,7 @@ use super::sketch::SketchFeatures;
 use super::sketch_fit::fit_to_sketch;
 use super::user_patches::UserPatch;
 use crate::canvas::Canvas;
+use crate::evaluation::quality::{seam_score, SeamScore};
 use crate::job::SynthError;
 use crate::stages::base_surface::BaseSurface;
 use ridgeline_terrain::grid::{distance_transform_by, Grid, Heightfield};
@@ -129,6 +130,9 @@ pub struct RegionsReport {
     /// and inside the regions (metres).
     pub boundary_step_p95_m: f32,
     pub inside_step_p95_m: f32,
+    /// The seam score with the regions as the patches: gradient jumps across region
+    /// boundaries against those inside regions.
+    pub boundary_seams: Option<SeamScore>,
 }
 
 impl RegionMap {
@@ -395,6 +399,14 @@ fn scale_relief(h: &mut Heightfield, mask: &Grid<bool>, base: Option<&BaseSurfac
         let reference = base.map_or(mean as f32, |b| b.at(i % w, i / w));
         h.data[i] = reference + f * (h.data[i] - reference);
     }
+}
+
+/// How the boundaries of `regions` look on the finished terrain `h` (the report's
+/// figures of them).
+pub fn judge_boundaries(report: &mut RegionsReport, h: &Heightfield, regions: &Regions) {
+    (report.boundary_step_p95_m, report.inside_step_p95_m) = boundary_steps(h, &regions.labels);
+    let labels: Vec<u32> = regions.labels.data.iter().map(|&l| l as u32).collect();
+    report.boundary_seams = Some(seam_score(h, &labels));
 }
 
 /// The 95th percentiles of the height step between 4-neighbours across a region
