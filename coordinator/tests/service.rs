@@ -520,3 +520,95 @@ fn a_library_of_generators_alone_is_listed_with_thumbnails_and_makes_terrain() {
         "inside the generator's 200..2000 m: {lo}..{hi}"
     );
 }
+
+/// The heights of a finished job, `max` samples a side at most.
+fn heights_of(url: &str, id: &str, max: usize) -> Vec<f32> {
+    let mut hb = Vec::new();
+    ureq::get(&format!("{url}/api/jobs/{id}/heights?max={max}")).call().unwrap().into_reader().read_to_end(&mut hb).unwrap();
+    hb.chunks(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect()
+}
+
+fn png_base64(img: image::DynamicImage) -> String {
+    use base64::Engine;
+    let mut png = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut png, image::ImageFormat::Png).unwrap();
+    base64::engine::general_purpose::STANDARD.encode(png.into_inner())
+}
+
+#[test]
+fn the_api_edits_an_earlier_job_s_terrain_and_makes_regions_of_their_own_exemplars() {
+    let d = tmp("artist");
+    let lib = d.join("generated.toml");
+    let generator = |kind: &str, name: &str, relief: u32| {
+        format!(
+            "[[generator]]\ngenerator = \"{kind}\"\n[generator.params]\nname = \"{name}\"\nwidth = 256\nheight = 256\n\
+             cell_size_m = 90\nseed = 4\nwavelength_cells = 64\noctaves = 6\ngain = 0.5\nlacunarity = 2\nrelief_m = {relief}\nbase_m = 200\n"
+        )
+    };
+    std::fs::write(&lib, [generator("ridged", "peaks", 1800), generator("fbm", "downs", 100)].concat()).unwrap();
+    let s = serve(&d, &lib, &[]);
+    let run = |body: serde_json::Value| {
+        let (code, st) = post(&format!("{}/api/jobs", s.url), &body, None);
+        assert_eq!(code, 202, "{st}");
+        let id = st["id"].as_str().unwrap().to_string();
+        let (fin, _) = follow(&s.url, &id);
+        assert_eq!(fin["state"], "done", "{fin}");
+        id
+    };
+    let sketch = serde_json::json!({ "strokes": strokes(128, 128) });
+    let first = run(serde_json::json!({ "sketch": sketch, "seed": 2, "patch_size": 32 }));
+    let base = heights_of(&s.url, &first, 128);
+    // a painted mask: the right half made anew, the left half kept bit for bit
+    let mask =
+        image::DynamicImage::ImageLuma8(image::GrayImage::from_fn(128, 128, |x, _| image::Luma([if x >= 64 { 255 } else { 0 }])));
+    let edit = serde_json::json!({ "base_job": first, "mask_png_base64": png_base64(mask.clone()) });
+    let edited = run(serde_json::json!({ "sketch": sketch, "seed": 5, "patch_size": 32, "edit": edit }));
+    let new = heights_of(&s.url, &edited, 128);
+    assert_eq!(new.len(), 128 * 128);
+    for i in 0..new.len() {
+        if i % 128 < 64 {
+            assert_eq!(new[i].to_bits(), base[i].to_bits(), "cell {i} kept");
+        }
+    }
+    let changed = (0..new.len()).filter(|&i| i % 128 >= 64 && new[i] != base[i]).count();
+    assert!(changed > 128 * 64 / 2, "{changed} cells of the right half made anew");
+    // an edit of a job that is not there, or with two modes, is refused at once
+    let (code, e) = post(
+        &format!("{}/api/jobs", s.url),
+        &serde_json::json!({ "sketch": sketch, "patch_size": 32, "edit": { "base_job": "j999999-0", "extend": [8, 0, 0, 0] } }),
+        None,
+    );
+    assert!(code == 400 && e["error"].as_str().unwrap().contains("no job 'j999999-0'"), "{e}");
+    let (code, e) = post(
+        &format!("{}/api/jobs", s.url),
+        &serde_json::json!({ "sketch": sketch, "patch_size": 32,
+            "edit": { "base_job": first, "extend": [8, 0, 0, 0], "mask_png_base64": png_base64(mask) } }),
+        None,
+    );
+    assert!(code == 400 && e["error"].as_str().unwrap().contains("give one of"), "{e}");
+    // regions: the peaks on the left, the downs on the right
+    let map = image::DynamicImage::ImageRgb8(image::RgbImage::from_fn(128, 128, |x, _| {
+        image::Rgb(if x < 64 { [200, 40, 40] } else { [40, 200, 40] })
+    }));
+    let regions = serde_json::json!({
+        "map_png_base64": png_base64(map),
+        "blend": 8,
+        "regions": [
+            { "name": "range", "colour": "#c82828", "exemplars": ["peaks"] },
+            { "name": "rolling", "colour": "#28c828", "exemplars": ["downs"] }
+        ]
+    });
+    let id = run(serde_json::json!({ "sketch": sketch, "seed": 2, "patch_size": 32, "regions": regions }));
+    let mut rb = Vec::new();
+    ureq::get(&format!("{}/api/jobs/{id}/files/report.json", s.url)).call().unwrap().into_reader().read_to_end(&mut rb).unwrap();
+    let report: serde_json::Value = serde_json::from_slice(&rb).unwrap();
+    let used: Vec<serde_json::Value> =
+        report["regions"]["regions"].as_array().unwrap().iter().map(|r| r["exemplars_used"].clone()).collect();
+    assert!(used.contains(&serde_json::json!(["peaks"])) && used.contains(&serde_json::json!(["downs"])), "{report}");
+    // a region naming an exemplar the library has not is refused, naming it
+    let mut bad = regions.clone();
+    bad["regions"][1]["exemplars"] = serde_json::json!(["gobi"]);
+    let (code, e) =
+        post(&format!("{}/api/jobs", s.url), &serde_json::json!({ "sketch": sketch, "patch_size": 32, "regions": bad }), None);
+    assert!(code == 400 && e["error"].as_str().unwrap().contains("'gobi'"), "{e}");
+}

@@ -14,6 +14,7 @@
 //!
 //! Every error is JSON `{"error": "..."}` with a sentence a person understands.
 
+use super::artist_control::{edit_of, region_map};
 use super::jobs::{JobEvent, SubmitError};
 use super::state::AppState;
 use crate::outputs::OutputFiles;
@@ -89,6 +90,15 @@ pub struct JobRequest {
     /// figures — timings, adherence — are always there).
     #[serde(default)]
     pub realism: bool,
+    /// Make the terrain tileable (`synth --wrap`).
+    #[serde(default)]
+    pub wrap: bool,
+    /// Regions with exemplars of their own (`synth --regions`).
+    #[serde(default)]
+    pub regions: Option<super::artist_control::RegionsRequest>,
+    /// Remake part of an earlier job's terrain (`synth --base`).
+    #[serde(default)]
+    pub edit: Option<super::artist_control::EditRequest>,
 }
 
 fn default_patch() -> usize {
@@ -96,7 +106,7 @@ fn default_patch() -> usize {
 }
 
 /// The sketch: a PNG (base64) or strokes.
-#[derive(Debug, serde::Deserialize)]
+#[derive(Debug, Clone, serde::Deserialize)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum SketchRequest {
     PngBase64(String),
@@ -124,6 +134,57 @@ pub async fn thumbnail(State(st): State<Arc<AppState>>, Path(name): Path<String>
 /// at 16 bits is refused: save it at 8 bits, or grey).
 pub const MAX_SKETCH_DECODED_BYTES: u64 = 256 << 20;
 
+/// The bytes of an image uploaded as base64 (`name` it in messages), checked from its
+/// header to decode to at most [`MAX_SKETCH_DECODED_BYTES`].
+pub(super) fn uploaded_image(b64: &str, name: &str, max_side: u32) -> Result<Vec<u8>, ApiError> {
+    let bytes = base64::engine::general_purpose::STANDARD
+        .decode(b64.trim())
+        .map_err(|e| bad(format!("{name} is not valid base64: {e}")))?;
+    let header = ridgeline_terrain::io::judge_image_header(std::path::Path::new(name), &bytes, bytes.len() as u64, max_side)
+        .map_err(|e| bad(e.to_string()))?;
+    if header.decoded_bytes() > MAX_SKETCH_DECODED_BYTES {
+        return Err(bad(format!(
+            "{name}: {} x {} pixels of {} bytes decode to {} MiB, more than {} MiB: save it as 8-bit grey or RGB(A)",
+            header.width,
+            header.height,
+            header.bytes_per_pixel,
+            header.decoded_bytes() >> 20,
+            MAX_SKETCH_DECODED_BYTES >> 20
+        )));
+    }
+    Ok(bytes)
+}
+
+/// A sketch of a request (`name` it in messages), checked: an image decoded (one at a
+/// time, `decoding`), strokes bounded in number and points and validated.
+pub(super) fn sketch_of(
+    sketch: &SketchRequest,
+    name: &str,
+    max_side: u32,
+    decoding: &std::sync::Mutex<()>,
+) -> Result<SketchSource, ApiError> {
+    Ok(match sketch {
+        SketchRequest::PngBase64(b64) => {
+            let bytes = uploaded_image(b64, name, max_side)?;
+            let _one_at_a_time = decoding.lock().unwrap_or_else(|e| e.into_inner());
+            let img = ridgeline_terrain::io::decode_sketch(std::path::Path::new(name), &bytes, max_side)
+                .map_err(|e| bad(e.to_string()))?;
+            SketchSource::Image(img)
+        }
+        SketchRequest::Strokes(s) => {
+            if s.strokes.len() > MAX_STROKES {
+                return Err(bad(format!("{name}: {} strokes: at most {MAX_STROKES}", s.strokes.len())));
+            }
+            let points: usize = s.strokes.iter().map(|s| s.points.len()).sum();
+            if points > MAX_POINTS {
+                return Err(bad(format!("{name}: {points} stroke points: at most {MAX_POINTS}")));
+            }
+            s.validate(max_side).map_err(|m| bad(format!("{name}: {m}")))?;
+            SketchSource::Strokes(s.clone())
+        }
+    })
+}
+
 /// Parses and checks a job request; the session validates the rest. Every size in it
 /// is bounded before it sizes any work: the body by the body limit, the strokes by
 /// their count, points and drawing work, a sketch image by its decoded bytes (judged
@@ -131,40 +192,7 @@ pub const MAX_SKETCH_DECODED_BYTES: u64 = 256 << 20;
 fn parse_request(body: &[u8], max_side: u32, decoding: &std::sync::Mutex<()>) -> Result<(JobRequest, SketchSource), ApiError> {
     let req: JobRequest =
         serde_json::from_slice(body).map_err(|e| bad(format!("the job request is not valid JSON for a job: {e}")))?;
-    let sketch = match &req.sketch {
-        SketchRequest::PngBase64(b64) => {
-            let bytes = base64::engine::general_purpose::STANDARD
-                .decode(b64.trim())
-                .map_err(|e| bad(format!("the sketch is not valid base64: {e}")))?;
-            let name = std::path::Path::new("the uploaded sketch");
-            let header = ridgeline_terrain::io::judge_image_header(name, &bytes, bytes.len() as u64, max_side)
-                .map_err(|e| bad(e.to_string()))?;
-            if header.decoded_bytes() > MAX_SKETCH_DECODED_BYTES {
-                return Err(bad(format!(
-                    "the uploaded sketch: {} x {} pixels of {} bytes decode to {} MiB, more than {} MiB: save it as 8-bit grey or RGB(A)",
-                    header.width,
-                    header.height,
-                    header.bytes_per_pixel,
-                    header.decoded_bytes() >> 20,
-                    MAX_SKETCH_DECODED_BYTES >> 20
-                )));
-            }
-            let _one_at_a_time = decoding.lock().unwrap_or_else(|e| e.into_inner());
-            let img = ridgeline_terrain::io::decode_sketch(name, &bytes, max_side).map_err(|e| bad(e.to_string()))?;
-            SketchSource::Image(img)
-        }
-        SketchRequest::Strokes(s) => {
-            if s.strokes.len() > MAX_STROKES {
-                return Err(bad(format!("{} strokes: at most {MAX_STROKES}", s.strokes.len())));
-            }
-            let points: usize = s.strokes.iter().map(|s| s.points.len()).sum();
-            if points > MAX_POINTS {
-                return Err(bad(format!("{points} stroke points: at most {MAX_POINTS}")));
-            }
-            s.validate(max_side).map_err(bad)?;
-            SketchSource::Strokes(s.clone())
-        }
-    };
+    let sketch = sketch_of(&req.sketch, "the uploaded sketch", max_side, decoding)?;
     if req.width.is_some() != req.height.is_some() {
         return Err(bad("give both width and height, or neither"));
     }
@@ -228,7 +256,8 @@ fn job_builder(
         .keep_features_only(req.debug)
         .realism_figures(req.realism)
         .elevation_range(req.elevation_range)
-        .erode(req.erode);
+        .erode(req.erode)
+        .wrap(req.wrap);
     if let (Some(w), Some(h)) = (req.width, req.height) {
         b = b.size(w, h);
     }
@@ -242,9 +271,26 @@ pub async fn submit(State(st): State<Arc<AppState>>, body: Bytes) -> Result<Resp
     // parsing (a sketch image's decoding) and building a session (which reads and
     // checks everything): off the async threads, so other requests are answered meanwhile
     let result = tokio::task::spawn_blocking(move || {
-        let (req, sketch) = parse_request(&body, cfg.max_side, &state.decoding).map_err(|e| SubmitError::Invalid(e.1))?;
+        let invalid = |e: ApiError| SubmitError::Invalid(e.1);
+        let (req, sketch) = parse_request(&body, cfg.max_side, &state.decoding).map_err(invalid)?;
+        let regions = req.regions.as_ref().map(|r| region_map(r, cfg.max_side, &state.decoding)).transpose().map_err(invalid)?;
+        let edit = req
+            .edit
+            .as_ref()
+            .map(|e| edit_of(e, &sketch, &queue, req.patch_size, cfg.max_side, &state.decoding))
+            .transpose()
+            .map_err(invalid)?;
         let size = (req.width.unwrap_or(0), req.height.unwrap_or(0), req.patch_size, req.seed);
-        queue.submit(size, |dir, cancel| job_builder(&req, sketch, &cfg, dir, cancel))
+        queue.submit(size, |dir, cancel| {
+            let mut b = job_builder(&req, sketch, &cfg, dir, cancel);
+            if let Some(map) = regions {
+                b = b.regions(map);
+            }
+            if let Some(e) = edit {
+                b = b.edit(e);
+            }
+            b
+        })
     })
     .await
     .map_err(|_| ApiError(StatusCode::INTERNAL_SERVER_ERROR, "submit task failed".into()))?;

@@ -14,6 +14,7 @@
 //! Written on axum (already in the dependency tree through tonic) with its SSE support.
 
 pub mod api;
+pub mod artist_control;
 pub mod jobs;
 pub mod state;
 pub mod web;
