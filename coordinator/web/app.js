@@ -3,13 +3,27 @@
 // the hillshade, the 3D view, the realism figures and the downloads. The drawing,
 // the settings and the last job are kept in the browser (localStorage) so a reload
 // finds them; earlier jobs are listed from the service. Every server error is shown
-// in words.
+// in words. The last result can be edited (a painted mask, the strokes changed since,
+// a grown border) and areas painted as regions with exemplars of their own.
 
 import { SketchPad } from './sketchpad.js';
+import { PaintLayer } from './layers.js';
 import { TerrainView } from './view3d.js';
 
 const $ = (id) => document.getElementById(id);
 const pad = new SketchPad($('sketch'));
+// the region map's unpainted colour is "the rest": the exemplars chosen in the grid
+const REST = '#000000';
+const PALETTE = ['#e0503a', '#3a8ee0', '#e0c03a', '#50c050', '#b060d0', '#40c8c8', '#e08ab0', '#a0a0a0'];
+pad.paints.mask = new PaintLayer(pad.canvas.width, pad.canvas.height, '#000000');
+pad.paints.region = new PaintLayer(pad.canvas.width, pad.canvas.height, REST);
+// with no region chosen, the region pen paints the rest back
+pad.paints.region.colour = REST;
+// regions painted on the map: name, colour, exemplars; the one the region pen paints
+const regions = [];
+let chosenRegion = -1;
+// the last finished job shown: what an edit starts from
+let lastDone = null;
 let view = null;
 let job = null;
 let events = null;
@@ -81,7 +95,7 @@ document.addEventListener('keydown', (e) => {
   if (e.target.tagName === 'INPUT') return;
   if ((e.ctrlKey || e.metaKey) && e.key.toLowerCase() === 'z') { e.preventDefault(); e.shiftKey ? pad.redo() : pad.undo(); }
   if (e.key === '[' || e.key === ']') setBrush(pad.width + (e.key === ']' ? 1 : -1));
-  const pens = { r: 'ridge', v: 'valley', e: 'eraser' };
+  const pens = { r: 'ridge', v: 'valley', e: 'eraser', g: 'region', m: 'mask' };
   if (pens[e.key]) document.querySelector(`button.pen[data-pen=${pens[e.key]}]`).click();
 });
 $('background').addEventListener('change', (e) => {
@@ -126,7 +140,7 @@ $('load-sketch').addEventListener('change', async (e) => {
   }
 });
 
-const SETTINGS = ['width', 'height', 'seed', 'patch', 'tiles', 'tile-format', 'range-lo', 'range-hi', 'erode', 'masks', 'realism', 'debug'];
+const SETTINGS = ['width', 'height', 'seed', 'patch', 'tiles', 'tile-format', 'range-lo', 'range-hi', 'erode', 'masks', 'realism', 'debug', 'wrap', 'edit-mode', 'grow'];
 function keep() {
   const settings = {};
   for (const id of SETTINGS) settings[id] = $(id).type === 'checkbox' ? $(id).checked : $(id).value;
@@ -145,6 +159,7 @@ function restore() {
     if ($(id).type === 'checkbox') $(id).checked = Boolean(v); else $(id).value = v;
   }
   if (kept.brush) setBrush(kept.brush);
+  $('grow-box').hidden = $('edit-mode').value !== 'grow';
   resizeSketch();
   try {
     pad.strokes = SketchPad.parse(kept.sketch, pad.canvas.width, pad.canvas.height);
@@ -174,6 +189,108 @@ function resizeSketch() {
 }
 $('width').addEventListener('change', resizeSketch);
 $('height').addEventListener('change', resizeSketch);
+
+// --- editing the last result and regions
+$('edit-mode').addEventListener('change', () => { $('grow-box').hidden = $('edit-mode').value !== 'grow'; });
+$('clear-mask').addEventListener('click', () => { pad.paints.mask.clear(); pad.render(); });
+$('clear-regions').addEventListener('click', (e) => { e.preventDefault(); pad.paints.region.clear(); pad.render(); });
+function chooseRegion(i) {
+  chosenRegion = i;
+  pad.paints.region.colour = regions[i].colour;
+  document.querySelector('button.pen[data-pen=region]').click();
+  renderRegions();
+}
+function renderRegions() {
+  const box = $('regions');
+  box.querySelectorAll('.region').forEach((r) => r.remove());
+  const names = checkboxes().map((c) => c.value);
+  regions.forEach((r, i) => {
+    const row = document.createElement('div');
+    row.className = 'region';
+    row.classList.toggle('chosen', i === chosenRegion);
+    row.dataset.index = i;
+    const swatch = document.createElement('span');
+    swatch.className = 'swatch';
+    swatch.style.background = r.colour;
+    swatch.title = 'paint this region';
+    swatch.addEventListener('click', () => chooseRegion(i));
+    const name = document.createElement('input');
+    name.type = 'text';
+    name.value = r.name;
+    name.addEventListener('change', () => { r.name = name.value.trim() || `region ${i + 1}`; });
+    const pick = document.createElement('select');
+    pick.multiple = true;
+    pick.title = 'the exemplars this region is made from';
+    for (const n of names) {
+      const o = document.createElement('option');
+      o.value = n;
+      o.textContent = n.replace(/\.[^.]+$/, '');
+      o.selected = r.exemplars.includes(n);
+      pick.append(o);
+    }
+    pick.addEventListener('change', () => { r.exemplars = [...pick.selectedOptions].map((o) => o.value); });
+    row.append(swatch, name, pick);
+    box.append(row);
+  });
+}
+$('add-region').addEventListener('click', (e) => {
+  e.preventDefault();
+  if (regions.length >= PALETTE.length) { showError(`at most ${PALETTE.length} regions on the page`); return; }
+  regions.push({ name: `region ${regions.length + 1}`, colour: PALETTE[regions.length], exemplars: [] });
+  chooseRegion(regions.length - 1);
+});
+
+/// The sketches of the jobs this browser submitted, by job id (an edit of the strokes
+/// changed since a job needs the sketch it was made from).
+function sketchOf(id) {
+  try { return JSON.parse(localStorage.getItem('ridgeline-sketches') || '{}')[id] || null; } catch (_) { return null; }
+}
+function rememberSketch(id, sketch) {
+  let all = {};
+  try { all = JSON.parse(localStorage.getItem('ridgeline-sketches') || '{}'); } catch (_) { /* start again */ }
+  all[id] = sketch;
+  const ids = Object.keys(all);
+  for (const old of ids.slice(0, Math.max(0, ids.length - 8))) delete all[old];
+  try { localStorage.setItem('ridgeline-sketches', JSON.stringify(all)); } catch (_) { /* storage full: no changed-stroke edits */ }
+}
+
+/// The request's edit, or null for a new terrain; sets `body.sketch` to the grown
+/// sketch when the border grows. Throws an Error saying what is missing.
+function editOf(body) {
+  const mode = $('edit-mode').value;
+  if (mode === 'new') return null;
+  if (!lastDone) throw new Error('make or show a terrain first: there is no result to edit');
+  const edit = { base_job: lastDone.id };
+  if (mode === 'mask') {
+    if (!pad.paints.mask.painted) throw new Error('paint the area to remake with the Mask pen first');
+    edit.mask_png_base64 = pad.paints.mask.toBase64();
+  } else if (mode === 'changed') {
+    const old = sketchOf(lastDone.id);
+    if (!old) throw new Error(`this browser did not make job ${lastDone.id}: its sketch is unknown`);
+    edit.changed_from = { strokes: old };
+  } else {
+    const by = $('grow').value.split(',').map((v) => Number(v.trim()));
+    if (by.length !== 4 || !by.every((v) => Number.isInteger(v) && v >= 0) || !by.some((v) => v > 0)) {
+      throw new Error(`grow by '${$('grow').value}': give four whole numbers of cells, left, top, right, bottom`);
+    }
+    edit.extend = by;
+    const s = pad.toJSON();
+    body.sketch = { strokes: { ...s, width: s.width + by[0] + by[2], height: s.height + by[1] + by[3],
+      strokes: s.strokes.map((k) => ({ ...k, points: k.points.map(([x, y]) => [x + by[0], y + by[1]]) })) } };
+  }
+  return edit;
+}
+
+/// The request's regions, or null when none is painted.
+function regionsOf(chosen) {
+  if (!regions.length || !pad.paints.region.painted) return null;
+  const empty = regions.find((r) => !r.exemplars.length);
+  if (empty) throw new Error(`${empty.name}: pick the exemplars it is made from`);
+  return {
+    map_png_base64: pad.paints.region.toBase64(),
+    regions: [{ name: 'the rest', colour: REST, exemplars: chosen }, ...regions.map((r) => ({ name: r.name, colour: r.colour, exemplars: r.exemplars }))],
+  };
+}
 
 // --- exemplars
 function countExemplars() {
@@ -205,6 +322,7 @@ async function loadExemplars(unchecked = []) {
     box.append(label);
   }
   countExemplars();
+  renderRegions();
 }
 const checkboxes = () => [...document.querySelectorAll('#exemplars input')];
 $('all').addEventListener('click', (e) => { e.preventDefault(); checkboxes().forEach((c) => { c.checked = true; c.dispatchEvent(new Event('change')); }); });
@@ -259,6 +377,7 @@ async function finished(status) {
 /// A finished job's result: hillshade, downloads, realism figures, 3D view.
 async function showJob(status) {
   const base = `/api/jobs/${status.id}`;
+  lastDone = { id: status.id, width: status.width, height: status.height };
   showProgress(status);
   const img = $('hillshade');
   img.src = withToken(`${base}/files/preview.png`);
@@ -431,7 +550,12 @@ $('submit').addEventListener('click', async () => {
     debug: $('debug').checked,
     elevation_range: lo === '' ? null : [Number(lo), Number(hi)],
     erode: erode > 0 ? erode : null,
+    wrap: $('wrap').checked,
   };
+  try {
+    body.edit = editOf(body);
+    body.regions = regionsOf(chosen);
+  } catch (e) { showError(e.message); return; }
   $('submit').disabled = true;
   $('result').hidden = true;
   $('downloads').hidden = true;
@@ -440,6 +564,19 @@ $('submit').addEventListener('click', async () => {
     const res = await api('/api/jobs', { method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(body) });
     job = await res.json();
     localStorage.setItem('ridgeline-job', job.id);
+    rememberSketch(job.id, body.sketch.strokes);
+    // a grown terrain: the sketch grows with it, so the next edit matches its size
+    if (body.edit?.extend) {
+      const [l, t, r, b] = body.edit.extend;
+      pad.grow(l, t, r, b);
+      $('width').value = pad.canvas.width;
+      $('height').value = pad.canvas.height;
+      $('preview').width = pad.canvas.width;
+      $('preview').height = pad.canvas.height;
+      $('edit-mode').value = 'new';
+      $('grow-box').hidden = true;
+      keep();
+    }
     $('cancel').disabled = false;
     showProgress(job);
     watch(job.id);

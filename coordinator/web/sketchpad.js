@@ -3,7 +3,8 @@
 // image to trace over, and the strokes as JSON (saved, loaded, kept by the page). The canvas holds one pixel per
 // output cell; strokes are kept as polylines in cells and sent to the service as
 // such: pen, width, and, when the elevation control is set, the height at every point
-// (the service keeps them as typed strokes; see `stages/sketch`).
+// (the service keeps them as typed strokes; see `stages/sketch`). The mask and region
+// pens paint on the pad's paint layers (`layers.js`) instead, shown over the strokes.
 
 export class SketchPad {
   constructor(canvas) {
@@ -23,6 +24,9 @@ export class SketchPad {
     this.current = null;
     this.onchange = () => {};
     this.layer = document.createElement('canvas');
+    // paint layers by pen ('mask', 'region'), drawn over the strokes
+    this.paints = {};
+    this.painting = null;
     canvas.addEventListener('pointerdown', (e) => this.down(e));
     canvas.addEventListener('pointermove', (e) => this.move(e));
     canvas.addEventListener('pointerup', () => this.up());
@@ -41,6 +45,7 @@ export class SketchPad {
     this.canvas.height = h;
     this.layer.width = w;
     this.layer.height = h;
+    for (const p of Object.values(this.paints)) p.resize(w, h);
     this.render();
   }
 
@@ -51,11 +56,24 @@ export class SketchPad {
 
   down(e) {
     this.canvas.setPointerCapture?.(e.pointerId);
+    const paint = this.paints[this.pen];
+    if (paint) {
+      // paint brushes are four times the pen's width: areas, not lines
+      this.painting = paint;
+      paint.begin(this.cell(e), 4 * this.width);
+      this.render();
+      return;
+    }
     this.current = { pen: this.pen, width: this.width, elevation: this.pen === 'eraser' ? null : this.elevation, points: [this.cell(e)] };
     this.change([...this.strokes, this.current], false);
   }
 
   move(e) {
+    if (this.painting) {
+      this.painting.to(this.cell(e));
+      this.render();
+      return;
+    }
     if (!this.current) return;
     const p = this.cell(e);
     const last = this.current.points[this.current.points.length - 1];
@@ -66,6 +84,11 @@ export class SketchPad {
   }
 
   up() {
+    if (this.painting) {
+      this.painting = null;
+      this.onchange();
+      return;
+    }
     if (!this.current) return;
     this.current = null;
     this.onchange();
@@ -136,6 +159,25 @@ export class SketchPad {
       ctx.globalAlpha = 1;
     }
     ctx.drawImage(layer, 0, 0);
+    // the paint layers tint what is under them (their black shows nothing)
+    ctx.globalCompositeOperation = 'screen';
+    ctx.globalAlpha = 0.5;
+    for (const p of Object.values(this.paints)) if (p.painted) ctx.drawImage(p.canvas, 0, 0);
+    ctx.globalAlpha = 1;
+    ctx.globalCompositeOperation = 'source-over';
+  }
+
+  /// Moves the drawing by (l, t) cells on a canvas grown by l + r and t + b (undoable
+  /// as a change of strokes; the paint layers start blank at the new size).
+  grow(l, t, r, b) {
+    const moved = this.strokes.map((s) => ({ ...s, points: s.points.map(([x, y]) => [x + l, y + t]) }));
+    const [w, h] = [this.canvas.width + l + r, this.canvas.height + t + b];
+    this.canvas.width = w;
+    this.canvas.height = h;
+    this.layer.width = w;
+    this.layer.height = h;
+    for (const p of Object.values(this.paints)) p.resize(w, h);
+    this.change(moved);
   }
 
   /// Replaces the drawing with a sketch as `toJSON` gives it (undoable), its

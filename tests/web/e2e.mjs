@@ -10,7 +10,9 @@
 // width's box and keys, Clear undone, a sketch saved and loaded as strokes JSON, the
 // 3D view's colours (not all green) and light, a texture mask, the EXR terrain and EXR
 // tiles downloaded through the page, the realism figures shown when asked for, and a
-// reload that finds the drawing, the settings and the job. Saves a screenshot.
+// reload that finds the drawing, the settings and the job; then the last result
+// edited with a painted mask (every other cell kept), a region painted with its own
+// exemplar, and the border grown. Saves a screenshot.
 //
 // usage: node tests/web/e2e.mjs [RIDGELINE_BINARY] [SHARED_DATA] [SCREENSHOT]
 import { chromium } from 'playwright-core';
@@ -310,6 +312,77 @@ try {
   await page.uncheck('#realism');
   await page.fill('#erode', '');
   await page.fill('#tiles', '0');
+
+  // edit the last result: paint a mask with the Mask pen and remake it; every cell
+  // outside the painted area keeps its height, bit for bit
+  const heightsOf = (id) => page.evaluate(async ([i, n]) => [...new Float32Array(await (await fetch(`/api/jobs/${i}/heights?max=${n}`)).arrayBuffer())], [id, 512]);
+  const sentJob = async () => {
+    const answered = page.waitForResponse((r) => r.url().endsWith('/api/jobs') && r.request().method() === 'POST');
+    await page.click('#submit');
+    const res = await answered;
+    const sent = JSON.parse(res.request().postData());
+    if (res.status() !== 202) fail(`a job was refused: ${await res.text()}`);
+    const { id } = await res.json();
+    // this job's line, finished (the last job's stays until the new one is shown)
+    await page.waitForFunction((i) => {
+      const e = document.getElementById('job-state');
+      return e && e.textContent.includes(i) && ['done', 'failed', 'cancelled'].includes(e.dataset.state);
+    }, id, { timeout: 300000 });
+    if ((await page.getAttribute('#job-state', 'data-state')) !== 'done') fail(`job ${id} ended ${await page.getAttribute('#job-state', 'data-state')}: ${await page.textContent('#error')}`);
+    return [sent, id];
+  };
+  const before = await heightsOf(jobId);
+  await page.fill('#brush-num', '12');
+  await page.dispatchEvent('#brush-num', 'change');
+  await page.click('button[data-pen=mask]');
+  await stroke([[0.55 * SIZE, 0.45 * SIZE], [0.8 * SIZE, 0.55 * SIZE]]);
+  await page.selectOption('#edit-mode', 'mask');
+  const [editSent, editId] = await sentJob();
+  if (editSent.edit?.base_job !== jobId || !editSent.edit.mask_png_base64) fail(`the edit was sent as ${JSON.stringify(editSent.edit)?.slice(0, 120)}`);
+  const maskOn = await page.evaluate(async (b64) => {
+    const img = new Image();
+    img.src = `data:image/png;base64,${b64}`;
+    await img.decode();
+    const c = document.createElement('canvas');
+    [c.width, c.height] = [img.width, img.height];
+    c.getContext('2d').drawImage(img, 0, 0);
+    const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+    return [...Array(d.length / 4).keys()].map((i) => d[4 * i] > 127);
+  }, editSent.edit.mask_png_base64);
+  const after = await heightsOf(editId);
+  let kept = 0, keptSame = 0, remade = 0, remadeChanged = 0;
+  for (let i = 0; i < SIZE * SIZE; i++) {
+    if (maskOn[i]) { remade++; if (after[i] !== before[i]) remadeChanged++; } else { kept++; if (after[i] === before[i]) keptSame++; }
+  }
+  console.log(`edit of job ${jobId}: ${remade} painted cells, ${remadeChanged} of them made anew; ${keptSame} of ${kept} others kept`);
+  if (after.length !== SIZE * SIZE || keptSame !== kept) fail(`the edit changed ${kept - keptSame} cells outside the mask`);
+  if (remade < 1000 || remadeChanged < remade / 2) fail(`the edit remade ${remadeChanged} of ${remade} painted cells`);
+  // a region painted with the Region pen, made from one exemplar alone
+  await page.selectOption('#edit-mode', 'new');
+  await page.click('#add-region');
+  await page.selectOption('#regions .region select', ['rockies.png']);
+  await stroke([[0.2 * SIZE, 0.15 * SIZE], [0.35 * SIZE, 0.6 * SIZE]]);
+  const [regionSent, regionId] = await sentJob();
+  const sentRegions = regionSent.regions?.regions || [];
+  if (sentRegions.length !== 2 || sentRegions[1].exemplars.join() !== 'rockies.png' || !regionSent.regions.map_png_base64) fail(`regions sent: ${JSON.stringify(sentRegions)}`);
+  const regionReport = await page.evaluate(async (id) => (await (await fetch(`/api/jobs/${id}/files/report.json`)).json()).regions, regionId);
+  const painted = regionReport?.regions?.find((r) => r.name === 'region 1');
+  console.log(`regions: ${JSON.stringify(regionReport?.regions?.map((r) => [r.name, r.cells, r.exemplars_used]))}`);
+  if (!painted || painted.exemplars_used.join() !== 'rockies.png') fail(`the painted region was made from ${JSON.stringify(painted?.exemplars_used)}`);
+  await page.screenshot({ path: shot.replace(/\.png$/, '-regions.png'), fullPage: true });
+  // the border grown: the old cells kept where they were, shifted by the growth
+  await page.click('#clear-regions');
+  await page.selectOption('#edit-mode', 'grow');
+  await page.fill('#grow', '32,0,0,16');
+  const base = await heightsOf(regionId);
+  const [growSent, grownId] = await sentJob();
+  if (JSON.stringify(growSent.edit?.extend) !== '[32,0,0,16]' || growSent.sketch.strokes.width !== SIZE + 32) fail(`the growth was sent as ${JSON.stringify(growSent.edit)}`);
+  const grown = await heightsOf(grownId);
+  let moved = 0;
+  for (let y = 0; y < SIZE; y++) for (let x = 0; x < SIZE; x++) if (grown[y * (SIZE + 32) + x + 32] === base[y * SIZE + x]) moved++;
+  if (grown.length !== (SIZE + 32) * (SIZE + 16) || moved !== SIZE * SIZE) fail(`grown: ${grown.length} cells, ${moved} of the old ones kept`);
+  if ((await page.inputValue('#width')) !== String(SIZE + 32)) fail(`after growing the sketch is ${await page.inputValue('#width')} wide`);
+  console.log(`grown by 32,0,0,16 to ${SIZE + 32} x ${SIZE + 16}: every old cell kept`);
 
   // a cancel the user asked for is shown as the job's state, not as an error
   await page.fill('#width', '2048');

@@ -11,6 +11,7 @@ const INDEX: &str = include_str!("../../web/index.html");
 const ASSETS: &[(&str, &str, &str)] = &[
     ("app.js", "text/javascript", include_str!("../../web/app.js")),
     ("sketchpad.js", "text/javascript", include_str!("../../web/sketchpad.js")),
+    ("layers.js", "text/javascript", include_str!("../../web/layers.js")),
     ("view3d.js", "text/javascript", include_str!("../../web/view3d.js")),
     ("style.css", "text/css", include_str!("../../web/style.css")),
 ];
