@@ -72,6 +72,12 @@ def synthesize(
     max_side: Optional[int] = None,
     progress: Optional[_Progress] = None,
     cancel: Optional[CancelToken] = None,
+    wrap: bool = False,
+    base: Union[npt.NDArray[np.floating], _Path, None] = None,
+    mask: Optional[npt.NDArray[Any]] = None,
+    extend: Optional[Tuple[int, int, int, int]] = None,
+    blend: Optional[int] = None,
+    regions: Optional[Mapping[str, Any]] = None,
 ) -> npt.NDArray[np.float32]:
     """Synthesises a terrain from a sketch and exemplar DEMs: a float32 array of
     shape (height, width), in metres. See the module's docstring at runtime

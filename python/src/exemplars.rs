@@ -82,6 +82,12 @@ fn entry(v: &Bound<'_, PyAny>, cell_size: Option<f32>, what: &str) -> PyResult<(
 /// A 2-D array of real numbers as metres: finite or `NaN` (a void), at least a
 /// smallest patch on each side.
 fn heights(v: &Bound<'_, PyAny>, what: &str) -> PyResult<Heightfield> {
+    heights_at_least(v, what, MIN_PATCH, "an exemplar")
+}
+
+/// A 2-D array of heights in metres (`NaN` for voids) as a heightfield, at least
+/// `min` cells a side (`thing` named in the message).
+pub fn heights_at_least(v: &Bound<'_, PyAny>, what: &str, min: usize, thing: &str) -> PyResult<Heightfield> {
     let a = v.cast::<PyUntypedArray>().map_err(|_| {
         PyTypeError::new_err(format!("{what}: an object of type {}: give a 2-D numpy array of heights in metres", type_name(v)))
     })?;
@@ -99,9 +105,9 @@ fn heights(v: &Bound<'_, PyAny>, what: &str) -> PyResult<Heightfield> {
         )));
     }
     let (height, width) = (a.shape()[0], a.shape()[1]);
-    if width < MIN_PATCH || height < MIN_PATCH {
+    if width < min || height < min {
         return Err(PyValueError::new_err(format!(
-            "{what}: {width} x {height} cells: an exemplar needs at least {MIN_PATCH} on each side (a patch)"
+            "{what}: {width} x {height} cells: {thing} needs at least {min} on each side"
         )));
     }
     let converted;

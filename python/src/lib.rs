@@ -10,6 +10,7 @@
 //! become Python exceptions ([`errors`]). Same inputs and seed, same array, whatever
 //! the thread count: the library's rule.
 
+mod artist;
 mod errors;
 mod exemplars;
 mod run;
@@ -62,6 +63,15 @@ const MAX_SIDE_LIMIT: i64 = 65_536;
 /// progress: callable(stage_label, done, total), called on the calling thread as the
 ///     job runs (stage labels in ridgeline.STAGES order); returning False cancels.
 /// cancel: a ridgeline.CancelToken; its cancel(), from any thread, stops the job.
+/// wrap: make the terrain tileable (periodic on both axes, no seam where it wraps).
+/// base: an existing terrain to edit (a 2-D array of metres, or a float TIFF's path),
+///     with mask= (a 2-D array of its size, True or nonzero where it is made anew) or
+///     extend=(left, top, right, bottom) cells to grow it by (the sketch, if any, of
+///     the grown size); every other cell is the base's, bit for bit. blend: cells
+///     inside the edit where the new terrain fades into the old (default patch/4).
+/// regions: {"map": a 2-D integer array of the terrain's size, each cell its region's
+///     index, "regions": [{"name", "exemplars": [names], "relief": factor?}],
+///     "blend": cells?}: each region made from its own exemplars.
 /// Any keyword argument given as None takes its default.
 ///
 /// Raises ridgeline.Cancelled when the job is cancelled, KeyboardInterrupt on Ctrl-C
@@ -72,9 +82,10 @@ const MAX_SIDE_LIMIT: i64 = 65_536;
     signature = (
         sketch, exemplars, *, size=None, seed=None, patch_size=None, cell_size=None, threads=None,
         large_scale=None, fit_sketch=None, elevation_range=None, erode=None, cache_dir=None,
-        max_memory=None, max_side=None, progress=None, cancel=None
+        max_memory=None, max_side=None, progress=None, cancel=None, wrap=None, base=None, mask=None,
+        extend=None, blend=None, regions=None
     ),
-    text_signature = "(sketch, exemplars, *, size=None, seed=0, patch_size=64, cell_size=None, threads=None, large_scale=True, fit_sketch=True, elevation_range=None, erode=None, cache_dir=None, max_memory=None, max_side=None, progress=None, cancel=None)"
+    text_signature = "(sketch, exemplars, *, size=None, seed=0, patch_size=64, cell_size=None, threads=None, large_scale=True, fit_sketch=True, elevation_range=None, erode=None, cache_dir=None, max_memory=None, max_side=None, progress=None, cancel=None, wrap=False, base=None, mask=None, extend=None, blend=None, regions=None)"
 )]
 #[allow(clippy::too_many_arguments)]
 fn synthesize<'py>(
@@ -95,6 +106,12 @@ fn synthesize<'py>(
     max_side: Option<&Bound<'py, PyAny>>,
     progress: Option<&Bound<'py, PyAny>>,
     cancel: Option<&Bound<'py, PyAny>>,
+    wrap: Option<&Bound<'py, PyAny>>,
+    base: Option<&Bound<'py, PyAny>>,
+    mask: Option<&Bound<'py, PyAny>>,
+    extend: Option<&Bound<'py, PyAny>>,
+    blend: Option<&Bound<'py, PyAny>>,
+    regions: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyArray2<f32>>> {
     let max_side = match arg("max_side", max_side, |v| v.extract::<i64>())? {
         None => ridgeline_terrain::io::DEFAULT_MAX_SIDE,
@@ -125,6 +142,15 @@ fn synthesize<'py>(
         Ok(arg(name, v, |v| v.extract::<bool>())?.unwrap_or(true))
     };
     let (large_scale, fit_sketch) = (flag("large_scale", large_scale)?, flag("fit_sketch", fit_sketch)?);
+    let wrap = arg("wrap", wrap, |v| v.extract::<bool>())?.unwrap_or(false);
+    let given = |v: Option<&Bound<'py, PyAny>>| v.filter(|v| !v.is_none()).cloned();
+    let extend = arg("extend", extend, |v| v.extract::<[i64; 4]>())?;
+    let blend = match arg("blend", blend, |v| v.extract::<i64>())? {
+        Some(b) if !(0..=4096).contains(&b) => return Err(PyValueError::new_err(format!("blend {b}: give 0 to 4096 cells"))),
+        b => b.map(|b| b as usize),
+    };
+    let edit = artist::edit(given(base).as_ref(), given(mask).as_ref(), extend, blend, patch, max_side)?;
+    let regions = arg("regions", regions, |v| artist::regions(v))?;
     let number = |name: &str, v: Option<&Bound<'py, PyAny>>| arg(name, v, |v| Ok(v.extract::<f64>()? as f32));
     let cell_size = number("cell_size", cell_size)?;
     let erode = number("erode", erode)?;
@@ -176,7 +202,14 @@ fn synthesize<'py>(
         .erode(erode)
         .cache_dir(cache_dir)
         .max_memory(max_memory)
-        .max_side(max_side);
+        .max_side(max_side)
+        .wrap(wrap);
+    if let Some(e) = edit {
+        builder = builder.edit(e);
+    }
+    if let Some(r) = regions {
+        builder = builder.regions(r);
+    }
     if let Some(c) = cell_size {
         builder = builder.cell_size(c);
     }

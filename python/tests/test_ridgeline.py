@@ -205,6 +205,59 @@ def test_strokes_as_dicts_document_and_json_file_agree_with_the_command_line(roc
     assert np.array_equal(read_tiff(tmp_path / "s.tif"), as_list)
 
 
+def test_an_edit_keeps_every_cell_outside_its_mask_and_extend_keeps_the_old_cells(crops):
+    sketch = ridge_sketch(96, 96)
+    base = ridgeline.synthesize(sketch, crops, cell_size=90, seed=2, threads=2, patch_size=32)
+    mask = np.zeros((96, 96), bool)
+    mask[20:70, 40:90] = True
+    edited = ridgeline.synthesize(sketch, crops, cell_size=90, seed=3, threads=2, patch_size=32, base=base, mask=mask)
+    assert edited.shape == base.shape
+    assert np.array_equal(edited[~mask].view(np.uint32), base[~mask].view(np.uint32))
+    assert (edited[mask] != base[mask]).mean() > 0.5
+    # grown: a sketch of the grown size (here without strokes)
+    grown = ridgeline.synthesize({"width": 112, "height": 104, "strokes": []}, crops, cell_size=90, seed=3,
+                                 threads=2, patch_size=32, base=base, extend=(16, 0, 0, 8))
+    assert grown.shape == (104, 112)
+    assert np.array_equal(grown[:96, 16:].view(np.uint32), base.view(np.uint32))
+    with pytest.raises(ValueError, match="mask: the mask is 10 x 10 cells"):
+        ridgeline.synthesize(sketch, crops, cell_size=90, base=base, mask=np.ones((10, 10), bool))
+    with pytest.raises(ValueError, match="give it as base="):
+        ridgeline.synthesize(sketch, crops, cell_size=90, mask=mask)
+
+
+def test_a_tileable_terrain_meets_itself_across_its_borders(crops):
+    sketch = ridge_sketch(128, 128)
+    plain = ridgeline.synthesize(sketch, crops, cell_size=90, seed=4, threads=2, patch_size=32).astype(np.float64)
+    wrapped = ridgeline.synthesize(sketch, crops, cell_size=90, seed=4, threads=2, patch_size=32, wrap=True).astype(np.float64)
+
+    def jump(t):
+        inside = np.percentile(np.abs(np.diff(t, axis=1)), 95)
+        return np.percentile(np.abs(t[:, 0] - t[:, -1]), 95) / inside
+
+    assert jump(wrapped) < 1.5 < 3 < jump(plain)
+
+
+def test_regions_are_made_from_their_own_exemplars(crops):
+    sketch = ridge_sketch(128, 128)
+    labels = np.zeros((128, 128), np.uint8)
+    labels[:, 64:] = 1
+    regions = {"map": labels, "blend": 16,
+               "regions": [{"name": "west", "exemplars": ["rockies-nw"]}, {"name": "east", "exemplars": ["rockies-se"]}]}
+    made = ridgeline.synthesize(sketch, crops, cell_size=90, seed=4, threads=2, patch_size=32, regions=regions)
+    both = ridgeline.synthesize(sketch, crops, cell_size=90, seed=4, threads=2, patch_size=32)
+    assert made.shape == (128, 128) and np.isfinite(made).all()
+    assert not np.array_equal(made, both)
+    again = ridgeline.synthesize(sketch, crops, cell_size=90, seed=4, threads=1, patch_size=32, regions=regions)
+    assert np.array_equal(made, again), "the same bytes on one thread"
+    regions["regions"][1]["exemplars"] = ["gobi"]
+    with pytest.raises(ValueError, match="'gobi' is no exemplar"):
+        ridgeline.synthesize(sketch, crops, cell_size=90, patch_size=32, regions=regions)
+    regions["regions"][1]["exemplars"] = ["rockies-se"]
+    labels[3, 5] = 7
+    with pytest.raises(ValueError, match=r"label 7 at \(5, 3\)"):
+        ridgeline.synthesize(sketch, crops, cell_size=90, patch_size=32, regions={**regions, "map": labels})
+
+
 def test_strokes_shape_the_terrain(crops):
     h = ridgeline.synthesize(STROKES, crops, size=(128, 96), cell_size=90, seed=6, threads=2)
     ridge = np.mean([h[int(y), int(x)] for x, y in STROKES[0]["points"]])

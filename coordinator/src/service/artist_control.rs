@@ -10,7 +10,7 @@ use super::api::{sketch_of, uploaded_image, ApiError, SketchRequest};
 use super::jobs::{JobQueue, JobState};
 use crate::session::SketchSource;
 use crate::stages::editing::Edit;
-use crate::stages::regions::{RegionMap, RegionSpec};
+use crate::stages::regions::{RegionMap, RegionPixels, RegionSpec};
 use axum::http::StatusCode;
 use ridgeline_terrain::grid::Grid;
 
@@ -60,7 +60,13 @@ pub fn region_map(req: &RegionsRequest, max_side: u32, decoding: &std::sync::Mut
     let image = ridgeline_terrain::io::decode_image(std::path::Path::new(name), &bytes, max_side)
         .map_err(|e| bad(e.to_string()))?
         .to_rgb8();
-    Ok(RegionMap { what: name.into(), map_file: None, image, regions: req.regions.clone(), blend: req.blend })
+    Ok(RegionMap {
+        what: name.into(),
+        map_file: None,
+        map: RegionPixels::Colours(image),
+        regions: req.regions.clone(),
+        blend: req.blend,
+    })
 }
 
 /// The edit a request asks for, of the terrain of its `base_job` in `queue`; `sketch`

@@ -53,8 +53,9 @@ pub const COLOUR_TOLERANCE: u8 = 48;
 #[serde(deny_unknown_fields)]
 pub struct RegionSpec {
     pub name: String,
-    /// Its colour in the map, `#rrggbb`.
-    pub colour: String,
+    /// Its colour in the map, `#rrggbb` (a map of labels needs none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub colour: Option<String>,
     /// Names of the library's exemplars it is made from.
     pub exemplars: Vec<String>,
     /// Its heights about the large-scale form scaled by this (0.1..4; none: as they
@@ -72,10 +73,26 @@ pub struct RegionMap {
     pub what: String,
     /// The map's file, when it came from one (no output may overwrite it).
     pub map_file: Option<PathBuf>,
-    pub image: image::RgbImage,
+    pub map: RegionPixels,
     pub regions: Vec<RegionSpec>,
     /// Width of the blend across each boundary, cells; none: half a patch.
     pub blend: Option<usize>,
+}
+
+/// A region map's pixels: colours (a painted PNG), or each cell's region's index.
+#[derive(Debug, Clone)]
+pub enum RegionPixels {
+    Colours(image::RgbImage),
+    Labels(Grid<u8>),
+}
+
+impl RegionPixels {
+    fn size(&self) -> (usize, usize) {
+        match self {
+            RegionPixels::Colours(i) => (i.width() as usize, i.height() as usize),
+            RegionPixels::Labels(g) => (g.width, g.height),
+        }
+    }
 }
 
 /// A regions file (TOML): the map (a PNG beside it), the blend width, the regions.
@@ -146,7 +163,7 @@ impl RegionMap {
             .map_err(|e| format!("{what}: the map: {e}"))?;
         let image =
             ridgeline_terrain::io::decode_image(&map, &bytes, max_side).map_err(|e| format!("{what}: the map: {e}"))?.to_rgb8();
-        Ok(RegionMap { what, map_file: Some(map), image, regions: file.region, blend: file.blend })
+        Ok(RegionMap { what, map_file: Some(map), map: RegionPixels::Colours(image), regions: file.region, blend: file.blend })
     }
 
     /// The regions of a `w x h` job on a library whose exemplars are named `names`
@@ -156,11 +173,10 @@ impl RegionMap {
         if self.regions.is_empty() || self.regions.len() > MAX_REGIONS {
             return Err(format!("{what}: give 1 to {MAX_REGIONS} regions, not {}", self.regions.len()));
         }
-        if (self.image.width() as usize, self.image.height() as usize) != (w, h) {
+        let (mw, mh) = self.map.size();
+        if (mw, mh) != (w, h) {
             return Err(format!(
-                "{what}: the map is {} x {} cells, the terrain {w} x {h}: paint the map at the sketch's size",
-                self.image.width(),
-                self.image.height()
+                "{what}: the map is {mw} x {mh} cells, the terrain {w} x {h}: paint the map at the sketch's size"
             ));
         }
         let mut colours = Vec::new();
@@ -170,10 +186,15 @@ impl RegionMap {
             if self.regions[..i].iter().any(|o| o.name == r.name) {
                 return Err(format!("{what}: two regions are named '{name}'"));
             }
-            let colour = parse_colour(&r.colour)
-                .ok_or_else(|| format!("{what}: region '{name}': '{}' is not a colour #rrggbb", r.colour))?;
-            if let Some(o) = colours.iter().position(|&c| c == colour) {
-                return Err(format!("{what}: regions '{}' and '{name}' have one colour, {}", self.regions[o].name, r.colour));
+            if let RegionPixels::Colours(_) = self.map {
+                let given = r.colour.as_deref().unwrap_or("");
+                let colour = parse_colour(given).ok_or_else(|| {
+                    format!("{what}: region '{name}': '{given}' is not a colour #rrggbb (the map's colour of the region)")
+                })?;
+                if let Some(o) = colours.iter().position(|&c| c == colour) {
+                    return Err(format!("{what}: regions '{}' and '{name}' have one colour, {given}", self.regions[o].name));
+                }
+                colours.push(colour);
             }
             if r.exemplars.is_empty() {
                 return Err(format!("{what}: region '{name}' names no exemplar"));
@@ -189,10 +210,18 @@ impl RegionMap {
             if let Some(f) = r.relief.filter(|f| !(0.1..=4.0).contains(f)) {
                 return Err(format!("{what}: region '{name}': relief {f} is outside 0.1..4"));
             }
-            colours.push(colour);
             regions.push(Region { name, sources, relief: r.relief });
         }
-        let labels = labels_of(&self.image, &colours).map_err(|m| format!("{what}: {m}"))?;
+        let labels = match &self.map {
+            RegionPixels::Colours(image) => labels_of(image, &colours).map_err(|m| format!("{what}: {m}"))?,
+            RegionPixels::Labels(g) => {
+                if let Some(i) = g.data.iter().position(|&l| l as usize >= regions.len()) {
+                    let (x, y, l) = (i % w, i / w, g.data[i]);
+                    return Err(format!("{what}: the label {l} at ({x}, {y}) is no region (there are {})", regions.len()));
+                }
+                g.clone()
+            }
+        };
         let blend = self.blend.unwrap_or(patch / 2);
         if blend > 4 * patch {
             return Err(format!("{what}: a blend of {blend} cells is wider than four patches ({})", 4 * patch));
@@ -240,20 +269,27 @@ fn labels_of(img: &image::RgbImage, colours: &[[u8; 3]]) -> Result<Grid<u8>, Str
     // the region of a colour, or how far it is from any (a map has few colours)
     let region_of = |px: [u8; 3]| -> (f32, usize) {
         let p = px.map(f32::from);
-        let mut best = (f32::MAX, 0usize);
-        let mut consider = |d: f32, r: usize| {
+        let consider = |best: &mut (f32, usize), d: f32, r: usize| {
             if d < best.0 {
-                best = (d, r);
+                *best = (d, r);
             }
         };
+        let mut best = (f32::MAX, 0usize);
         for (a, &ca) in cs.iter().enumerate() {
-            consider(far(p, ca), a);
+            consider(&mut best, far(p, ca), a);
+        }
+        // a region's own colour (give or take a painting program's rounding) is that
+        // region, even where it lies between two others
+        if best.0 <= (COLOUR_TOLERANCE / 4) as f32 {
+            return best;
+        }
+        for (a, &ca) in cs.iter().enumerate() {
             for (b, &cb) in cs.iter().enumerate().skip(a + 1) {
                 let d: [f32; 3] = std::array::from_fn(|k| cb[k] - ca[k]);
                 let t = ((0..3).map(|k| (p[k] - ca[k]) * d[k]).sum::<f32>() / (0..3).map(|k| d[k] * d[k]).sum::<f32>())
                     .clamp(0.0, 1.0);
                 let q: [f32; 3] = std::array::from_fn(|k| ca[k] + t * d[k]);
-                consider(far(p, q), if t <= 0.5 { a } else { b });
+                consider(&mut best, far(p, q), if t <= 0.5 { a } else { b });
             }
         }
         best
@@ -446,7 +482,7 @@ mod tests {
     fn spec(name: &str, colour: &str, exemplars: &[&str]) -> RegionSpec {
         RegionSpec {
             name: name.into(),
-            colour: colour.into(),
+            colour: Some(colour.into()),
             exemplars: exemplars.iter().map(|s| s.to_string()).collect(),
             relief: None,
         }
@@ -468,7 +504,7 @@ mod tests {
         let m = RegionMap {
             what: "r.toml".into(),
             map_file: None,
-            image: img.clone(),
+            map: RegionPixels::Colours(img.clone()),
             regions: vec![spec("peaks", "#ff0000", &["alps", "andes"]), spec("plain", "#00ff00", &["gobi"])],
             blend: Some(6),
         };
@@ -489,18 +525,29 @@ mod tests {
         let e = refused(bad, (30, 10));
         assert!(e.contains("'karakoram'") && e.contains("alps, gobi.png, andes"), "{e}");
         let mut bad = m.clone();
-        bad.image.put_pixel(20, 4, image::Rgb([0, 0, 255]));
+        if let RegionPixels::Colours(i) = &mut bad.map {
+            i.put_pixel(20, 4, image::Rgb([0, 0, 255]));
+        }
         let e = refused(bad, (30, 10));
         assert!(e.contains("#0000ff at (20, 4)"), "{e}");
         let mut bad = m.clone();
-        bad.regions[1].colour = "#ff0000".into();
+        bad.regions[1].colour = Some("#ff0000".into());
         assert!(refused(bad, (30, 10)).contains("one colour"));
         let mut bad = m.clone();
-        bad.regions[0].colour = "red".into();
+        bad.regions[0].colour = Some("red".into());
         assert!(refused(bad, (30, 10)).contains("'red' is not a colour"));
-        let mut bad = m;
+        let mut bad = m.clone();
         bad.regions[0].relief = Some(9.0);
         assert!(refused(bad, (30, 10)).contains("relief 9"));
+        // a map of labels: each cell its region's index, no colours needed
+        let mut labels = m;
+        labels.regions.iter_mut().for_each(|r| r.colour = None);
+        labels.map = RegionPixels::Labels(Grid::from_vec(30, 10, (0..300).map(|i| (i % 30 >= 20) as u8).collect()));
+        assert_eq!(labels.resolve(&names, (30, 10), 16).unwrap().cells(), vec![200, 100]);
+        if let RegionPixels::Labels(g) = &mut labels.map {
+            g.set(3, 2, 2);
+        }
+        assert!(refused(labels, (30, 10)).contains("label 2 at (3, 2)"));
     }
 
     #[test]
