@@ -246,6 +246,7 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
         .large_scale(!a.no_large_scale)
         .erode(a.erode)
         .wrap(a.wrap)
+        .smooth_seams(a.smooth_seams)
         .exemplars(Exemplars::library(&a.exemplars))
         .backend(backend)
         .patch_size(a.patch_size)

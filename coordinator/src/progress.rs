@@ -30,6 +30,8 @@ pub enum Stage {
     SketchFit,
     /// Every region but the largest made anew from its own exemplars (`--regions`).
     Regions,
+    /// Curvature-weighted smoothing of the seams (`--smooth-seams`).
+    SeamSmoothing,
     /// Fluvial erosion, when asked for (`--erode`); progress counts its steps.
     Erosion,
     /// Depressions breached so the valleys drain, and the elevation range held.
@@ -45,7 +47,7 @@ pub enum Stage {
 
 impl Stage {
     /// Every stage, in order.
-    pub const ALL: [Stage; 14] = [
+    pub const ALL: [Stage; 15] = [
         Stage::Exemplars,
         Stage::SketchFeatures,
         Stage::LargeScale,
@@ -55,6 +57,7 @@ impl Stage {
         Stage::HoleFilling,
         Stage::SketchFit,
         Stage::Regions,
+        Stage::SeamSmoothing,
         Stage::Erosion,
         Stage::Conditioning,
         Stage::Editing,
@@ -73,6 +76,7 @@ impl Stage {
             Stage::FeaturePlacement => "feature_placement",
             Stage::HoleFilling => "hole_filling",
             Stage::SketchFit => "sketch_fit",
+            Stage::SeamSmoothing => "seam_smoothing",
             Stage::Regions => "regions",
             Stage::Erosion => "erosion",
             Stage::Conditioning => "conditioning",
@@ -93,6 +97,7 @@ impl Stage {
             Stage::FeaturePlacement => "feature placement",
             Stage::HoleFilling => "hole filling",
             Stage::SketchFit => "sketch fit",
+            Stage::SeamSmoothing => "seam smoothing",
             Stage::Regions => "regions",
             Stage::Erosion => "erosion",
             Stage::Conditioning => "drainage and range",

@@ -244,6 +244,11 @@ impl SessionBuilder {
         self.regions = Some(map);
         self
     }
+    /// Smooth the seams by curvature after every merge (`stages::seam_smoothing`).
+    pub fn smooth_seams(mut self, on: bool) -> Self {
+        self.settings.smooth_seams = on;
+        self
+    }
     /// Make the terrain tileable: periodic on both axes, no seam where it wraps
     /// (`stages::editing`). Each side must be at least two patches.
     pub fn wrap(mut self, on: bool) -> Self {

@@ -145,6 +145,10 @@ pub struct SynthArgs {
     /// column, row 0 the last row), so copies of it tile with no seam.
     #[arg(long, conflicts_with = "base")]
     pub wrap: bool,
+    /// Smooth the seams between placed patches where their curvature jumps, weighted
+    /// by it (the ETRI patent's blending): detail away from the seams is kept.
+    #[arg(long)]
+    pub smooth_seams: bool,
     /// Regions with exemplars of their own: a TOML file naming a map (a PNG of the
     /// sketch's size, one colour per region), the blend width across their boundaries
     /// and, per region, its colour, the library's exemplars it is made from and

@@ -21,7 +21,9 @@
 //!    floors on valley lines (`--no-sketch-fit` skips it);
 //! 8. [`regions`] — with a region map (`--regions`), stages 5 to 7 are the largest
 //!    region's, from its exemplars alone; every other region is then made anew from
-//!    its own on a canvas seeded with the rest and joined like an edit;
+//!    its own on a canvas seeded with the rest and joined like an edit; then, with
+//!    `--smooth-seams`, [`seam_smoothing`] smooths every seam (the regions' boundaries
+//!    among them) where curvature jumps;
 //! 9. [`erode`] — fluvial erosion, when asked for (`--erode STRENGTH`);
 //! 10. conditioning — depressions breached so the valleys drain
 //!     ([`drainage::breach_depressions`]), the elevation range held
@@ -67,6 +69,7 @@ use crate::stages::feature_placement::{place_features, PlacementSettings};
 use crate::stages::hole_filling::{fill_holes, FillSettings};
 use crate::stages::large_scale::{self, hold_range, LibraryForm};
 use crate::stages::regions;
+use crate::stages::seam_smoothing;
 use crate::stages::sketch::{self, SketchFeatures, SketchInput};
 use crate::stages::sketch_fit::{fit_to_sketch, FitStats};
 use crate::stages::user_patches::{user_patches, UserPatch};
@@ -256,6 +259,14 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
         None => None,
     };
 
+    // the seams smoothed where curvature jumps, the regions' boundaries among them
+    let seam_smoothing = match set.smooth_seams {
+        true => Some(run.run(Stage::SeamSmoothing, |cx| {
+            Ok(cx.install(|| seam_smoothing::smooth_seams(&mut canvas.heights, &canvas.provenance.data, p)))
+        })?),
+        false => None,
+    };
+
     let erosion = match set.erode {
         Some(strength) => Some(run.run(Stage::Erosion, |cx| {
             Ok(erode(&mut canvas.heights, strength, |s| cx.progress(s as u64, EROSION_STEPS as u64)))
@@ -328,6 +339,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
         edit,
         wrap,
         regions,
+        seam_smoothing,
     });
     let out = SynthOutput { sketch_image, features_only, sketch: sk, user_patches: ups, canvas, form };
     Ok((out, report))

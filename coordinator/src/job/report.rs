@@ -13,6 +13,7 @@ use crate::stages::feature_placement::PlacementStats;
 use crate::stages::hole_filling::FillStats;
 use crate::stages::large_scale::FormStats;
 use crate::stages::regions::RegionsReport;
+use crate::stages::seam_smoothing::SmoothStats;
 use crate::stages::sketch::SketchFeatures;
 use crate::stages::sketch_fit::FitStats;
 use crate::stages::user_patches::{count_by_kind, UserPatch};
@@ -72,6 +73,9 @@ pub struct SynthReport {
     /// boundaries against those inside (`--regions`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub regions: Option<RegionsReport>,
+    /// What the curvature-weighted seam smoothing did (`--smooth-seams`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub seam_smoothing: Option<SmoothStats>,
     /// Sketch adherence of the result, per kind: sampled centre-line points whose
     /// cross profile at patch/4 has the kind's shape (a crest for ridges, a floor for
     /// valleys).
@@ -108,6 +112,7 @@ pub struct JobResults<'a> {
     pub edit: Option<EditStats>,
     pub wrap: Option<WrapStats>,
     pub regions: Option<RegionsReport>,
+    pub seam_smoothing: Option<SmoothStats>,
 }
 
 /// What the wrap stage did.
@@ -161,6 +166,7 @@ impl SynthReport {
             edit: r.edit,
             wrap: r.wrap,
             regions: r.regions,
+            seam_smoothing: r.seam_smoothing,
             adherence: sk.lines.map(|kind, g| adherence(&canvas.heights, g, kind, set.patch as f32 / 4.0, 4, 8, &bounds)),
             seams: seam_score(&canvas.heights, &canvas.provenance.data),
             shards: ShardReport::of_shards(r.shards, r.times_before),

@@ -49,6 +49,8 @@ pub struct JobSettings {
     pub edit: Option<std::sync::Arc<crate::stages::editing::Edit>>,
     /// Make the terrain periodic on both axes (`--wrap`; `stages::editing`).
     pub wrap: bool,
+    /// Smooth the seams where curvature jumps (`--smooth-seams`; `stages::seam_smoothing`).
+    pub smooth_seams: bool,
     /// Regions with exemplar subsets of their own (`--regions`; `stages::regions`).
     pub regions: Option<std::sync::Arc<crate::stages::regions::Regions>>,
 }
@@ -73,6 +75,7 @@ impl Default for JobSettings {
             erode: None,
             edit: None,
             wrap: false,
+            smooth_seams: false,
             regions: None,
         }
     }

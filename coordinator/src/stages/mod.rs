@@ -20,6 +20,7 @@ pub mod large_scale;
 pub mod merge;
 pub mod ragged_edge;
 pub mod regions;
+pub mod seam_smoothing;
 pub mod selection;
 pub mod sketch;
 pub mod sketch_fit;
