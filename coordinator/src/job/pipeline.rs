@@ -72,7 +72,7 @@ use crate::stages::regions;
 use crate::stages::seam_smoothing;
 use crate::stages::sketch::{self, SketchFeatures, SketchInput};
 use crate::stages::sketch_fit::{fit_to_sketch, FitStats};
-use crate::stages::user_patches::{user_patches, UserPatch};
+use crate::stages::user_patches::{self, user_patches, UserPatch};
 use ridgeline_terrain::exemplar_source::ExemplarSource;
 use ridgeline_terrain::grid::{Grid, Heightfield};
 use ridgeline_terrain::shard::{ShardTimes, OUTPUT_LEVEL};
@@ -181,7 +181,14 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
     };
     let base = form.as_ref().map(|f| &f.target);
 
-    let ups = run.run(Stage::UserPatches, |_| Ok(user_patches(&sk, p)))?;
+    // an edit places only the strokes in the area it remakes
+    let ups = run.run(Stage::UserPatches, |_| {
+        let all = user_patches(&sk, p);
+        Ok(match &set.edit {
+            Some(e) => user_patches::within(&all, &e.mask),
+            None => all,
+        })
+    })?;
 
     let mut canvas = match &set.edit {
         Some(e) => Canvas::seeded(&e.base, |i| !e.mask.data[i], p),
@@ -290,7 +297,8 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
     let wrap = match set.wrap {
         true => Some(run.run(Stage::Editing, |cx| {
             let mut join = editing::EditStats::default();
-            for ((dx, dy), band) in editing::wrap_bands(w, h, p / 2 + p / 4) {
+            let half = editing::wrap_half_width(&canvas.heights, p);
+            for ((dx, dy), band) in editing::wrap_bands(w, h, half) {
                 let edit = editing::Edit::new(editing::roll(&canvas.heights, dx, dy), band, p / 4).map_err(SynthError::Config)?;
                 let mut rolled = Canvas::seeded(&edit.base, |i| !edit.mask.data[i], p);
                 let fill = FillSettings { level: OUTPUT_LEVEL, seed: set.seed ^ 0x7772_6170 ^ dx as u64, base: None };

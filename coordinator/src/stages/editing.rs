@@ -179,6 +179,47 @@ pub fn roll(h: &Heightfield, dx: usize, dy: usize) -> Heightfield {
     Grid::from_vec(w, hh, data)
 }
 
+/// How far either side of a wrap-around seam its band reaches (cells): at least
+/// three quarters of a patch, and wide enough that the level difference across the
+/// seam (the 95th percentile of the unwrapped terrain's jump from its last column to
+/// its first, and last row to first) spreads over the band no steeper than the
+/// terrain's 90th-percentile step between neighbours; at most two patches (wider bands
+/// remake too much of the sketch's terrain by hole filling alone) and a quarter of the
+/// shorter side. (mixed-1024 drawn at 4096², seed 2, jumped 4.5 km across its rows
+/// unwrapped: with bands of 48 cells a side the wrap's row step p95 was 73.9 m against
+/// 36.7 m inside; with these, about 93 cells, 34.0 m against 36.1 m, 9% of the cells
+/// remade. A median-step rule widened small-range-512's bands to 128 cells, half the
+/// terrain, and its valley adherence fell from 1.00 to 0.89.)
+pub fn wrap_half_width(h: &Heightfield, patch: usize) -> usize {
+    let (w, hh) = (h.width, h.height);
+    let p95 = |mut v: Vec<f32>| -> f32 {
+        v.retain(|d| d.is_finite());
+        if v.is_empty() {
+            return 0.0;
+        }
+        let k = (v.len() * 95 / 100).min(v.len() - 1);
+        *v.select_nth_unstable_by(k, f32::total_cmp).1
+    };
+    let across_x = p95((0..hh).map(|y| (h.get(0, y) - h.get(w - 1, y)).abs()).collect());
+    let across_y = p95((0..w).map(|x| (h.get(x, 0) - h.get(x, hh - 1)).abs()).collect());
+    // the 90th-percentile step, over every 7th cell (a prime stride: no row or column
+    // favoured)
+    let mut steps: Vec<f32> = (0..w * hh)
+        .step_by(7)
+        .filter(|i| i % w + 1 < w)
+        .map(|i| (h.data[i + 1] - h.data[i]).abs())
+        .filter(|d| d.is_finite())
+        .collect();
+    let steep = if steps.is_empty() {
+        1.0
+    } else {
+        let k = steps.len() * 9 / 10;
+        steps.select_nth_unstable_by(k, f32::total_cmp).1.max(0.01)
+    };
+    let needed = (across_x.max(across_y) / (2.0 * steep)).ceil() as usize;
+    needed.min(2 * patch).max(patch / 2 + patch / 4).min(w.min(hh) / 4)
+}
+
 /// The bands that make a `w x h` terrain tileable, each with the roll it is made on:
 /// first, on the terrain rolled by half its size, the cells within `half` of both
 /// wrap-around seams (which cross in the middle), except where a band reaches the

@@ -31,7 +31,7 @@ use super::feature_placement::{place_features, PlacementSettings};
 use super::hole_filling::{fill_holes, FillSettings};
 use super::sketch::SketchFeatures;
 use super::sketch_fit::fit_to_sketch;
-use super::user_patches::UserPatch;
+use super::user_patches::{within, UserPatch};
 use crate::canvas::Canvas;
 use crate::evaluation::quality::{seam_score, SeamScore};
 use crate::job::SynthError;
@@ -356,18 +356,7 @@ pub fn remake(canvas: &mut Canvas, regions: &Regions, r: usize, pass: &RegionPas
     let edit = Edit::new(canvas.heights.clone(), mask, regions.blend).map_err(SynthError::Config)?;
     let mut c = Canvas::seeded(&edit.base, |i| !edit.mask.data[i], p);
     c.levels_given = pass.base.is_some();
-    // the strokes within the pass, numbered anew in their order
-    let ups: Vec<UserPatch> = pass
-        .user_patches
-        .iter()
-        .filter(|u| edit.mask.get(u.cx, u.cy))
-        .cloned()
-        .enumerate()
-        .map(|(i, mut u)| {
-            (u.id, u.query.id) = (i as u32, i as u32);
-            u
-        })
-        .collect();
+    let ups = within(pass.user_patches, &edit.mask);
     let seed = set.seed ^ 0x7265_6769_6f6e ^ ((r as u64) << 40);
     let placing = PlacementSettings {
         level: OUTPUT_LEVEL,

@@ -103,6 +103,21 @@ pub fn count_by_kind(ups: &[UserPatch]) -> PerKind<usize> {
     PerKind::from_fn(|k| ups.iter().filter(|u| u.kind == k).count())
 }
 
+/// The user patches whose centre lies where `inside` is set, numbered anew in their
+/// order (an edit or a region remakes only its own area: `stages::editing`,
+/// `stages::regions`).
+pub fn within(ups: &[UserPatch], inside: &ridgeline_terrain::grid::Grid<bool>) -> Vec<UserPatch> {
+    ups.iter()
+        .filter(|u| inside.get(u.cx, u.cy))
+        .cloned()
+        .enumerate()
+        .map(|(i, mut u)| {
+            (u.id, u.query.id) = (i as u32, i as u32);
+            u
+        })
+        .collect()
+}
+
 /// Builds the user patches of a sketch: one kind after the other (ridges first, then
 /// valleys: Crause runs feature matching once per kind), each in BFS order.
 pub fn user_patches(sk: &SketchFeatures, patch: usize) -> Vec<UserPatch> {
