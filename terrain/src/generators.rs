@@ -20,6 +20,15 @@
 //!   warping), `warp_cells` the largest displacement: sinuous, folded landforms.
 //!
 //! Every kind is scaled to span `base_m ..= base_m + relief_m` exactly.
+//!
+//! Each octave is the mean of value noise on two lattices turned apart, both turned
+//! by a further rotation per octave with the exact rational matrix of the 3-4-5
+//! triangle (about 53°) and shifted by an offset of their own ([`octave_noise`],
+//! [`octave_point`]): with every octave on one axis-aligned lattice, lacunarity 2 put
+//! each octave's lattice lines on the last one's and the terrain showed square
+//! plateaus and straight, axis-aligned edges in its hillshade. The fullest of nine
+//! 10-degree bins of gradient direction over the emptiest (256², a 64-cell
+//! wavelength, 7 octaves): fBm 1.10 and ridged 1.65 on one lattice, 1.07 and 1.18 now.
 
 use crate::error::{Result, TerrainError};
 pub use crate::exemplar_source::Recipe;
@@ -223,7 +232,7 @@ impl Noise {
     fn fbm(&self, x: f64, y: f64, octaves: u32, seed: u64) -> f64 {
         let (mut freq, mut amp, mut sum) = (1.0 / self.wavelength_cells, 1.0, 0.0);
         for octave in 0..octaves {
-            sum += amp * value_noise(x * freq, y * freq, octave_salt(seed, octave));
+            sum += amp * octave_noise(x * freq, y * freq, octave, octave_salt(seed, octave));
             freq *= self.lacunarity;
             amp *= self.gain;
         }
@@ -237,7 +246,7 @@ impl Noise {
         let offset = self.ridge_offset.unwrap_or(1.0);
         let (mut freq, mut amp, mut sum, mut weight) = (1.0 / self.wavelength_cells, 1.0, 0.0, 1.0);
         for octave in 0..self.octaves {
-            let n = value_noise(x * freq, y * freq, octave_salt(self.seed, octave));
+            let n = octave_noise(x * freq, y * freq, octave, octave_salt(self.seed, octave));
             let ridge = (offset - n.abs()).max(0.0);
             let signal = ridge * ridge * weight;
             sum += amp * signal;
@@ -247,6 +256,28 @@ impl Noise {
         }
         sum
     }
+}
+
+/// Where octave `octave` samples its lattice for the point (x, y) (in its own
+/// frequency's units): turned `octave + 1` times by the rotation (3/5, -4/5; 4/5, 3/5),
+/// exact in rationals, then shifted off the lattice by an offset of its own.
+fn octave_point(x: f64, y: f64, octave: u32) -> (f64, f64) {
+    let (mut u, mut v) = (x, y);
+    for _ in 0..=octave {
+        (u, v) = (0.6 * u - 0.8 * v, 0.8 * u + 0.6 * v);
+    }
+    let k = octave as f64;
+    (u + 0.3125 * k, v + 0.5625 * k)
+}
+
+/// One octave's noise at (x, y) (in its frequency's units): the mean of value noise
+/// on two lattices turned apart (by the 3-4-5 rotation), scaled back to the spread of
+/// one, so neither lattice's grain shows.
+fn octave_noise(x: f64, y: f64, octave: u32, salt: u64) -> f64 {
+    let (u, v) = octave_point(x, y, octave);
+    let (s, t) = octave_point(u, v, 0);
+    const SQRT_HALF: f64 = std::f64::consts::FRAC_1_SQRT_2;
+    (value_noise(u, v, salt) + value_noise(s + 0.5, t + 0.25, salt ^ 0x5151_7e1f)) * SQRT_HALF
 }
 
 fn octave_salt(seed: u64, octave: u32) -> u64 {
@@ -396,6 +427,36 @@ mod tests {
         let r = shape(Some(30.0)).recipe();
         assert_eq!(r.generator, "warped");
         assert_eq!(r.params["warp_cells"], serde_json::json!(30.0));
+    }
+
+    /// How unevenly the gradients point: over nine 10-degree bins of their direction
+    /// folded to 0..90 degrees (a lattice's grain repeats every 90), the fullest bin
+    /// over the emptiest (1 for isotropic terrain).
+    fn grain(h: &Heightfield) -> f64 {
+        let mut bins = [0usize; 9];
+        for y in 1..h.height - 1 {
+            for x in 1..h.width - 1 {
+                let (gx, gy) = ((h.get(x + 1, y) - h.get(x - 1, y)) as f64, (h.get(x, y + 1) - h.get(x, y - 1)) as f64);
+                if gx.hypot(gy) < 1e-6 {
+                    continue;
+                }
+                let a = gy.atan2(gx).to_degrees().rem_euclid(90.0);
+                bins[((a / 10.0) as usize).min(8)] += 1;
+            }
+        }
+        *bins.iter().max().unwrap() as f64 / (*bins.iter().min().unwrap()).max(1) as f64
+    }
+
+    #[test]
+    fn octaves_on_turned_lattices_leave_no_axis_aligned_grain() {
+        for kind in [NoiseKind::Fbm, NoiseKind::Ridged, NoiseKind::Warped] {
+            let mut n = Noise::new(kind, "n", 256, 256, 90.0, 7);
+            n.wavelength_cells = 64.0;
+            n.octaves = 7;
+            let g = grain(&n.generate());
+            eprintln!("{kind:?}: grain {g:.3}");
+            assert!(g < 1.3, "{kind:?}: {g:.3} times as many gradients in one direction as in another");
+        }
     }
 
     #[test]
