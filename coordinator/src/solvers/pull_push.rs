@@ -101,16 +101,7 @@ fn fill(w: usize, h: usize, values: Vec<f64>, weights: Vec<f64>) -> Vec<f64> {
             if k >= 1.0 {
                 return values[i];
             }
-            let (x, y) = (i % w, i / w);
-            let u = ((x as f64 + 0.5) / 2.0 - 0.5).clamp(0.0, (cw - 1) as f64);
-            let v = ((y as f64 + 0.5) / 2.0 - 0.5).clamp(0.0, (ch - 1) as f64);
-            let (x0, y0) = (u.floor() as usize, v.floor() as usize);
-            let (x1, y1) = ((x0 + 1).min(cw - 1), (y0 + 1).min(ch - 1));
-            let (fx, fy) = (u - x0 as f64, v - y0 as f64);
-            let g = |x: usize, y: usize| coarse[y * cw + x];
-            let from_coarse =
-                (g(x0, y0) * (1.0 - fx) + g(x1, y0) * fx) * (1.0 - fy) + (g(x0, y1) * (1.0 - fx) + g(x1, y1) * fx) * fy;
-            k * values[i] + (1.0 - k) * from_coarse
+            k * values[i] + (1.0 - k) * super::twice_as_fine(&coarse, cw, ch, i % w, i / w)
         })
         .collect()
 }
