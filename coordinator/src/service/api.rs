@@ -17,34 +17,18 @@
 use super::artist_control::{edit_of, region_map};
 use super::jobs::{JobEvent, SubmitError};
 use super::state::AppState;
+use super::uploads::{bad, not_found, sketch_of};
+pub use super::uploads::{ApiError, SketchRequest, MAX_SKETCH_DECODED_BYTES};
 use crate::outputs::OutputFiles;
-use crate::session::{Exemplars, Session, SketchSource, StrokeSketch};
+use crate::session::{Exemplars, Session, SketchSource};
 use axum::body::Bytes;
 use axum::extract::{Path, Query, State};
 use axum::http::{header, StatusCode};
 use axum::response::sse::{Event, KeepAlive, Sse};
 use axum::response::{IntoResponse, Response};
 use axum::Json;
-use base64::Engine;
 use std::sync::Arc;
 use tokio_stream::StreamExt;
-
-/// An error answer.
-pub struct ApiError(pub StatusCode, pub String);
-
-impl IntoResponse for ApiError {
-    fn into_response(self) -> Response {
-        (self.0, Json(serde_json::json!({ "error": self.1 }))).into_response()
-    }
-}
-
-fn bad(m: impl Into<String>) -> ApiError {
-    ApiError(StatusCode::BAD_REQUEST, m.into())
-}
-
-fn not_found(m: impl Into<String>) -> ApiError {
-    ApiError(StatusCode::NOT_FOUND, m.into())
-}
 
 /// A job as submitted.
 #[derive(Debug, serde::Deserialize)]
@@ -105,18 +89,6 @@ fn default_patch() -> usize {
     64
 }
 
-/// The sketch: a PNG (base64) or strokes.
-#[derive(Debug, Clone, serde::Deserialize)]
-#[serde(rename_all = "snake_case", deny_unknown_fields)]
-pub enum SketchRequest {
-    PngBase64(String),
-    Strokes(StrokeSketch),
-}
-
-/// Most strokes and points in one sketch.
-const MAX_STROKES: usize = 20_000;
-const MAX_POINTS: usize = 2_000_000;
-
 pub async fn list_exemplars(State(st): State<Arc<AppState>>) -> Response {
     Json(serde_json::json!({ "exemplars": st.library.entries() })).into_response()
 }
@@ -128,61 +100,6 @@ pub async fn thumbnail(State(st): State<Arc<AppState>>, Path(name): Path<String>
         .map_err(|_| ApiError(StatusCode::INTERNAL_SERVER_ERROR, "thumbnail task failed".into()))?
         .map_err(|e| not_found(st.queue.redact(&e)))?;
     Ok(([(header::CONTENT_TYPE, "image/png"), (header::CACHE_CONTROL, "max-age=3600")], png).into_response())
-}
-
-/// Most bytes a sketch image may decode to (an 8192² RGBA image at 8 bits; the same
-/// at 16 bits is refused: save it at 8 bits, or grey).
-pub const MAX_SKETCH_DECODED_BYTES: u64 = 256 << 20;
-
-/// The bytes of an image uploaded as base64 (`name` it in messages), checked from its
-/// header to decode to at most [`MAX_SKETCH_DECODED_BYTES`].
-pub(super) fn uploaded_image(b64: &str, name: &str, max_side: u32) -> Result<Vec<u8>, ApiError> {
-    let bytes = base64::engine::general_purpose::STANDARD
-        .decode(b64.trim())
-        .map_err(|e| bad(format!("{name} is not valid base64: {e}")))?;
-    let header = ridgeline_terrain::io::judge_image_header(std::path::Path::new(name), &bytes, bytes.len() as u64, max_side)
-        .map_err(|e| bad(e.to_string()))?;
-    if header.decoded_bytes() > MAX_SKETCH_DECODED_BYTES {
-        return Err(bad(format!(
-            "{name}: {} x {} pixels of {} bytes decode to {} MiB, more than {} MiB: save it as 8-bit grey or RGB(A)",
-            header.width,
-            header.height,
-            header.bytes_per_pixel,
-            header.decoded_bytes() >> 20,
-            MAX_SKETCH_DECODED_BYTES >> 20
-        )));
-    }
-    Ok(bytes)
-}
-
-/// A sketch of a request (`name` it in messages), checked: an image decoded (one at a
-/// time, `decoding`), strokes bounded in number and points and validated.
-pub(super) fn sketch_of(
-    sketch: &SketchRequest,
-    name: &str,
-    max_side: u32,
-    decoding: &std::sync::Mutex<()>,
-) -> Result<SketchSource, ApiError> {
-    Ok(match sketch {
-        SketchRequest::PngBase64(b64) => {
-            let bytes = uploaded_image(b64, name, max_side)?;
-            let _one_at_a_time = decoding.lock().unwrap_or_else(|e| e.into_inner());
-            let img = ridgeline_terrain::io::decode_sketch(std::path::Path::new(name), &bytes, max_side)
-                .map_err(|e| bad(e.to_string()))?;
-            SketchSource::Image(img)
-        }
-        SketchRequest::Strokes(s) => {
-            if s.strokes.len() > MAX_STROKES {
-                return Err(bad(format!("{name}: {} strokes: at most {MAX_STROKES}", s.strokes.len())));
-            }
-            let points: usize = s.strokes.iter().map(|s| s.points.len()).sum();
-            if points > MAX_POINTS {
-                return Err(bad(format!("{name}: {points} stroke points: at most {MAX_POINTS}")));
-            }
-            s.validate(max_side).map_err(|m| bad(format!("{name}: {m}")))?;
-            SketchSource::Strokes(s.clone())
-        }
-    })
 }
 
 /// Parses and checks a job request; the session validates the rest. Every size in it
@@ -451,6 +368,7 @@ pub async fn heights(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use base64::Engine;
     use proptest::prelude::*;
     use serde_json::{json, Value};
 

@@ -6,12 +6,11 @@
 //! Decoded and checked before the job is queued, every problem said in a sentence that
 //! names the part of the request.
 
-use super::api::{sketch_of, uploaded_image, ApiError, SketchRequest};
 use super::jobs::{JobQueue, JobState};
+use super::uploads::{bad, sketch_of, uploaded_image, ApiError, SketchRequest};
 use crate::session::SketchSource;
 use crate::stages::editing::Edit;
 use crate::stages::regions::{RegionMap, RegionPixels, RegionSpec};
-use axum::http::StatusCode;
 use ridgeline_terrain::grid::Grid;
 
 /// Regions as a request gives them.
@@ -46,10 +45,6 @@ pub struct EditRequest {
     /// (default a quarter patch).
     #[serde(default)]
     pub blend: Option<usize>,
-}
-
-fn bad(m: impl Into<String>) -> ApiError {
-    ApiError(StatusCode::BAD_REQUEST, m.into())
 }
 
 /// The region map a request gives.

@@ -17,6 +17,7 @@ pub mod api;
 pub mod artist_control;
 pub mod jobs;
 pub mod state;
+pub mod uploads;
 pub mod web;
 
 pub use state::{AppState, LibraryIndex, ServiceConfig, THUMBNAIL_SIDE};

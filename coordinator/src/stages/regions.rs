@@ -342,14 +342,18 @@ pub struct RegionPass<'a> {
     pub sketch: &'a SketchFeatures,
     /// The large-scale target, when the job has one.
     pub base: Option<&'a BaseSurface>,
-    pub settings: &'a crate::job::settings::JobSettings,
+    /// The job's matching settings and seed, and whether it fits the sketch.
+    pub k: usize,
+    pub block: usize,
+    pub max_batch: usize,
+    pub seed: u64,
+    pub fit_sketch: bool,
     pub pool: &'a rayon::ThreadPool,
     pub cancel: &'a crate::progress::CancelToken,
 }
 
 /// Makes region `r` anew on `canvas` (a later pass: see the module header).
 pub fn remake(canvas: &mut Canvas, regions: &Regions, r: usize, pass: &RegionPass<'_>) -> Result<RegionStats, SynthError> {
-    let set = pass.settings;
     let p = canvas.patch;
     let (w, h) = (canvas.heights.width, canvas.heights.height);
     let mask = regions.pass_mask(r);
@@ -357,14 +361,14 @@ pub fn remake(canvas: &mut Canvas, regions: &Regions, r: usize, pass: &RegionPas
     let mut c = Canvas::seeded(&edit.base, |i| !edit.mask.data[i], p);
     c.levels_given = pass.base.is_some();
     let ups = within(pass.user_patches, &edit.mask);
-    let seed = set.seed ^ 0x7265_6769_6f6e ^ ((r as u64) << 40);
+    let seed = pass.seed ^ 0x7265_6769_6f6e ^ ((r as u64) << 40);
     let placing = PlacementSettings {
         level: OUTPUT_LEVEL,
         base: pass.base,
-        k: set.k,
-        block: set.block,
+        k: pass.k,
+        block: pass.block,
         seed,
-        max_batch: set.max_batch,
+        max_batch: pass.max_batch,
         progress: &|_, _, _| {},
         cancel: pass.cancel,
     };
@@ -372,7 +376,7 @@ pub fn remake(canvas: &mut Canvas, regions: &Regions, r: usize, pass: &RegionPas
     let fill = FillSettings { level: OUTPUT_LEVEL, seed, base: pass.base };
     let filled = fill_holes(&mut c, pass.shards, &fill, pass.pool, &|_, _| {}, pass.cancel)?;
     pass.pool.install(|| {
-        if set.fit_sketch {
+        if pass.fit_sketch {
             fit_to_sketch(&mut c.heights, pass.sketch, p);
         }
         if let Some(f) = regions.regions[r].relief {
