@@ -28,8 +28,8 @@
 //! 10. conditioning — depressions breached so the valleys drain
 //!     ([`drainage::breach_depressions`]), the elevation range held
 //!     ([`large_scale::hold_range`]);
-//! 11. `--wrap`: the band around the wrap-around seams filled anew on the terrain
-//!     rolled by half its size, joined, rolled back ([`editing::wrap_bands`]); then
+//! 11. `--wrap`: the band around the wrap-around seams made anew on the terrain
+//!     rolled by half its size (its strokes placed, then filled), joined, rolled back ([`editing::wrap_bands`]); then
 //!     the tileable terrain's depressions breached as a torus
 //!     ([`drainage::breach_depressions_on_torus`]);
 //! 12. [`editing::join`] — on an existing terrain (`--base`), only the edited cells
@@ -305,7 +305,22 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
             for ((dx, dy), band) in editing::wrap_bands(w, h, half) {
                 let edit = editing::Edit::new(editing::roll(&canvas.heights, dx, dy), band, p / 4).map_err(SynthError::Config)?;
                 let mut rolled = Canvas::seeded(&edit.base, |i| !edit.mask.data[i], p);
-                let fill = FillSettings { level: OUTPUT_LEVEL, seed: set.seed ^ 0x7772_6170 ^ dx as u64, base: None };
+                let seed = set.seed ^ 0x7772_6170 ^ dx as u64;
+                // the strokes in the band, moved with the roll, placed before its fills
+                let moved: Vec<UserPatch> =
+                    ups.iter().map(|u| UserPatch { cx: (u.cx + w - dx) % w, cy: (u.cy + h - dy) % h, ..u.clone() }).collect();
+                let placing = PlacementSettings {
+                    level: OUTPUT_LEVEL,
+                    base: None,
+                    k: set.k,
+                    block: set.block,
+                    seed,
+                    max_batch: set.max_batch,
+                    progress: &|_, _, _| {},
+                    cancel: cx.cancel,
+                };
+                place_features(&mut rolled, &user_patches::within(&moved, &edit.mask), shards, &placing, cx.pool)?;
+                let fill = FillSettings { level: OUTPUT_LEVEL, seed, base: None };
                 fill_holes(&mut rolled, shards, &fill, cx.pool, &|_, _| {}, cx.cancel)?;
                 join = join.and(cx.install(|| editing::join(&mut rolled.heights, &edit)));
                 canvas.heights = editing::roll(&rolled.heights, (w - dx) % w, (h - dy) % h);
