@@ -375,9 +375,7 @@ fn edit_of(a: &SynthArgs) -> Result<Option<ridgeline::stages::editing::Edit>> {
     let edit = if let Some(m) = &a.mask {
         let bytes = ridgeline_terrain::io::read_input(m, ridgeline_terrain::io::raster_byte_limit(a.max_side))?;
         let img = ridgeline_terrain::io::decode_image(m, &bytes, a.max_side)?.to_luma8();
-        let (w, h) = (img.width() as usize, img.height() as usize);
-        let mask = ridgeline_terrain::grid::Grid::from_vec(w, h, img.pixels().map(|p| p.0[0] > 127).collect());
-        Edit::new(base, mask, blend).map_err(named(m))?
+        Edit::new(base, ridgeline::stages::editing::mask_of_image(&img), blend).map_err(named(m))?
     } else if let Some(old) = &a.changed_from {
         let Some(new) = &a.sketch else { bail!("--changed-from {}: give the new --sketch too", old.display()) };
         Edit::changed(base, &sketch_grid(old)?, &sketch_grid(new)?, a.patch_size, blend).map_err(named(old))?
@@ -386,11 +384,7 @@ fn edit_of(a: &SynthArgs) -> Result<Option<ridgeline::stages::editing::Edit>> {
         let Ok(by) = <[usize; 4]>::try_from(v) else {
             bail!("--extend {by}: give four numbers of cells, LEFT,TOP,RIGHT,BOTTOM (e.g. 256,0,256,0)")
         };
-        let grown = (base.width + by[0] + by[2], base.height + by[1] + by[3]);
-        if grown.0.max(grown.1) > a.max_side as usize {
-            bail!("--extend: the grown terrain would be {} x {} cells, beyond --max-side {}", grown.0, grown.1, a.max_side);
-        }
-        Edit::extend(&base, by, blend).map_err(|m| anyhow::anyhow!("--extend: {m}"))?
+        Edit::extend(&base, by, blend, a.max_side as usize).map_err(|m| anyhow::anyhow!("--extend: {m}"))?
     } else {
         bail!("--base {}: say what to make anew with --mask, --changed-from or --extend", base_path.display())
     };

@@ -45,14 +45,7 @@ pub fn edit(
             if by.contains(&usize::MAX) {
                 return Err(PyValueError::new_err("extend: give four numbers of cells of at least 0 (left, top, right, bottom)"));
             }
-            let grown = (base.width + by[0] + by[2], base.height + by[1] + by[3]);
-            if grown.0.max(grown.1) > max_side as usize {
-                return Err(PyValueError::new_err(format!(
-                    "extend: the grown terrain would be {} x {} cells, beyond max_side {max_side}",
-                    grown.0, grown.1
-                )));
-            }
-            Edit::extend(&base, by, blend).map(Some).map_err(|m| PyValueError::new_err(format!("extend: {m}")))
+            Edit::extend(&base, by, blend, max_side as usize).map(Some).map_err(|m| PyValueError::new_err(format!("extend: {m}")))
         }
         (None, None) => Err(PyValueError::new_err("base: say what to make anew with mask= or extend=")),
         (Some(_), Some(_)) => Err(PyValueError::new_err("give mask= or extend=, not both")),

@@ -6,6 +6,14 @@
 
 use crate::grid::Heightfield;
 
+/// The value `percent` (0 to 100) of the way through `v`, by selection (`v` is
+/// reordered): the element at index `len · percent / 100` of `v` sorted; `None` for
+/// an empty `v`. Leave NaNs out first (they sort last).
+pub fn percentile(v: &mut [f32], percent: usize) -> Option<f32> {
+    let k = (v.len() * percent / 100).min(v.len().checked_sub(1)?);
+    Some(*v.select_nth_unstable_by(k, f32::total_cmp).1)
+}
+
 /// Window sides (cells) at which relief is measured.
 pub const RELIEF_SCALES: [u32; 7] = [8, 16, 32, 64, 128, 256, 512];
 

@@ -29,8 +29,9 @@
 //!     ([`drainage::breach_depressions`]), the elevation range held
 //!     ([`large_scale::hold_range`]);
 //! 11. `--wrap`: the band around the wrap-around seams made anew on the terrain
-//!     rolled by half its size (its strokes placed, then filled), joined, rolled back ([`editing::wrap_bands`]); then
-//!     the tileable terrain's depressions breached as a torus
+//!     rolled by half its size (its strokes placed, then filled), joined, rolled
+//!     back ([`editing::wrap_bands`]); then the tileable terrain's depressions
+//!     breached as a torus
 //!     ([`drainage::breach_depressions_on_torus`]);
 //! 12. [`editing::join`] — on an existing terrain (`--base`), only the edited cells
 //!     are kept, joined to the old terrain without a seam. Such a job starts from a
@@ -123,6 +124,8 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
     let load =
         LoadSettings { patch: p, cell_size: set.cell_size, max_side: set.max_side, cache_dir: set.cache_dir.clone(), coarse };
     let what = job.library.map_or_else(|| "(exemplars in memory)".to_string(), |p| p.display().to_string());
+    // the regions' passes, largest first (none without regions)
+    let region_order = set.regions.as_ref().map_or_else(Vec::new, |r| r.order());
     // the shards: one set for the library, or one for each region's subset
     let (ex, region_shards) = run.run(Stage::Exemplars, |cx| {
         Ok(cx.install(|| -> Result<_, exemplars::ExemplarsError> {
@@ -130,7 +133,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
                 return Ok((exemplars::load(job.sources, None, &what, job.fleet, in_process, &load)?, Vec::new()));
             };
             let mut sets = vec![Vec::new(); r.regions.len()];
-            for g in r.order() {
+            for &g in &region_order {
                 let named = format!("{what} (region '{}')", r.regions[g].name);
                 sets[g] = exemplars::load(job.sources, Some(&r.regions[g].sources), &named, job.fleet, in_process, &load)?.shards;
             }
@@ -140,7 +143,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
     })?;
     let shards = &ex.shards;
     // the shards the job's first pass is made from: with regions, the largest region's
-    let first_shards = set.regions.as_ref().map_or(shards, |r| &region_shards[r.order()[0]]);
+    let first_shards = region_order.first().map_or(shards, |&g| &region_shards[g]);
     let times_before: Vec<ShardTimes> = shards.iter().map(|s| s.times()).collect();
 
     let (sk, sketch_image) = run.run(Stage::SketchFeatures, |cx| Ok(cx.install(|| sketch::analyse_input(job.sketch, p))))?;
@@ -238,11 +241,14 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
     // every region but the largest made anew from its own exemplars (see `regions`)
     let mut regions = match &set.regions {
         Some(r) => Some(run.run(Stage::Regions, |cx| {
-            let order = r.order();
-            let mut first = regions::stats_of(&canvas, r, order[0], shards);
-            (first.pass_cells, first.user_patches, first.placed, first.fills) =
-                (w * h, ups.len(), placement.placed, filling.fills);
-            let mut stats = vec![first];
+            let order = &region_order;
+            let mut stats = vec![regions::RegionStats {
+                pass_cells: w * h,
+                user_patches: ups.len(),
+                placed: placement.placed,
+                fills: filling.fills,
+                ..regions::RegionStats::named(r, order[0])
+            }];
             for (done, &g) in order.iter().enumerate().skip(1) {
                 let pass = regions::RegionPass {
                     shards: &region_shards[g],
@@ -263,7 +269,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
             // each region's exemplars as the terrain has them now (a later pass may
             // have remade an earlier region's cells near their common boundary)
             for (k, &g) in order.iter().enumerate() {
-                stats[k].exemplars_used = regions::stats_of(&canvas, r, g, shards).exemplars_used;
+                stats[k].exemplars_used = regions::exemplars_used(&canvas, r, g, shards);
             }
             Ok(regions::RegionsReport { blend: r.blend, regions: stats, ..Default::default() })
         })?),

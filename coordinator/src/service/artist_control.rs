@@ -9,7 +9,7 @@
 use super::jobs::{JobQueue, JobState};
 use super::uploads::{bad, sketch_of, uploaded_image, ApiError, SketchRequest};
 use crate::session::SketchSource;
-use crate::stages::editing::Edit;
+use crate::stages::editing::{mask_of_image, Edit};
 use crate::stages::regions::{RegionMap, RegionPixels, RegionSpec};
 use ridgeline_terrain::grid::Grid;
 
@@ -102,18 +102,12 @@ pub fn edit_of(
         let img = ridgeline_terrain::io::decode_image(std::path::Path::new(name), &bytes, max_side)
             .map_err(|e| bad(e.to_string()))?
             .to_luma8();
-        let mask = Grid::from_vec(img.width() as usize, img.height() as usize, img.pixels().map(|p| p.0[0] > 127).collect());
-        Edit::new(base, mask, blend).map_err(|m| bad(format!("{name}: {m}")))?
+        Edit::new(base, mask_of_image(&img), blend).map_err(|m| bad(format!("{name}: {m}")))?
     } else if let Some(old) = &req.changed_from {
         let old = grid_of(&sketch_of(old, "the earlier sketch", max_side, decoding)?);
         Edit::changed(base, &old, &grid_of(sketch), patch, blend).map_err(|m| bad(format!("edit: {m}")))?
     } else {
-        let by = req.extend.unwrap_or_default();
-        let grown = (base.width + by[0] + by[2], base.height + by[1] + by[3]);
-        if grown.0.max(grown.1) > max_side as usize {
-            return Err(bad(format!("edit: the grown terrain would be {} x {} cells, beyond {max_side}", grown.0, grown.1)));
-        }
-        Edit::extend(&base, by, blend).map_err(|m| bad(format!("edit: {m}")))?
+        Edit::extend(&base, req.extend.unwrap_or_default(), blend, max_side as usize).map_err(|m| bad(format!("edit: {m}")))?
     };
     Ok(edit)
 }

@@ -430,16 +430,20 @@ fn carve(h: &mut Heightfield, topo: Topology, path: &[usize], keep: &[bool], wal
             }
         }
     }
-    // each cell's cut once: a box wider than a torus holds some cells twice
-    let mut by_cell: Vec<(usize, f32)> =
-        cut.iter().enumerate().map(|(b, &d)| (cell(x0 + (b % bw) as i64, y0 + (b / bw) as i64), d)).collect();
+    // the cells cut, each once: a box wider than a torus holds some cells twice
+    let mut by_cell: Vec<(usize, f32)> = cut
+        .iter()
+        .enumerate()
+        .filter(|(_, &d)| d > 0.0)
+        .map(|(b, &d)| (cell(x0 + (b % bw) as i64, y0 + (b / bw) as i64), d))
+        .collect();
     if torus && (bw > w || cut.len() / bw > hh) {
         by_cell.sort_by(|a, b| a.0.cmp(&b.0).then(b.1.total_cmp(&a.1)));
         by_cell.dedup_by_key(|e| e.0);
     }
     let (mut lowered, mut deepest) = (0, 0f32);
     for (j, d) in by_cell {
-        if d > 0.0 && h.data[j].is_finite() {
+        if h.data[j].is_finite() {
             deepest = deepest.max(d);
             h.data[j] -= d;
             lowered += 1;

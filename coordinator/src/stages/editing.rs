@@ -28,6 +28,7 @@
 
 use crate::solvers::pull_push::pull_push_relaxed;
 use ridgeline_terrain::grid::{distance_transform_by, Grid, Heightfield};
+use ridgeline_terrain::height_stats::percentile;
 
 /// Jacobi sweeps after the offset's pull-push: a grown border (`--extend`, no blend
 /// band: the base has no heights there) meets the old edge with the offset's
@@ -36,6 +37,12 @@ use ridgeline_terrain::grid::{distance_transform_by, Grid, Heightfield};
 /// edge was 193 m with none, 98 m with 10, 70 m with 40, 57 m with 100 (58.9 m between
 /// neighbours inside); edits with a blend band and regions did not change.
 const JOIN_SWEEPS: usize = 100;
+
+/// A painted mask: true where the image is white (above 127), where the terrain is
+/// made anew.
+pub fn mask_of_image(img: &image::GrayImage) -> Grid<bool> {
+    Grid::from_vec(img.width() as usize, img.height() as usize, img.pixels().map(|p| p.0[0] > 127).collect())
+}
 
 /// An edit of an existing terrain: the base's heights (NaN where it has none, the
 /// new border of `--extend`) and the cells to re-synthesise.
@@ -79,13 +86,19 @@ impl Edit {
     }
 
     /// The edit that grows `base` by `[left, top, right, bottom]` cells: the new
-    /// border is made, the old cells kept.
-    pub fn extend(base: &Heightfield, by: [usize; 4], blend: usize) -> Result<Edit, String> {
+    /// border is made, the old cells kept. The grown terrain may be at most
+    /// `max_side` cells a side.
+    pub fn extend(base: &Heightfield, by: [usize; 4], blend: usize, max_side: usize) -> Result<Edit, String> {
         let [l, t, r, b] = by;
-        if l + t + r + b == 0 {
+        if by.iter().all(|&v| v == 0) {
             return Err("--extend 0,0,0,0 grows nothing: give the cells to add on each side".into());
         }
-        let (w, h) = (base.width + l + r, base.height + t + b);
+        let (w, h) = (base.width.saturating_add(l).saturating_add(r), base.height.saturating_add(t).saturating_add(b));
+        if w.max(h) > max_side {
+            return Err(format!(
+                "the grown terrain would be {w} x {h} cells, beyond the largest side the job takes ({max_side} cells)"
+            ));
+        }
         let mut heights = Grid::new(w, h, f32::NAN);
         let mut mask = Grid::new(w, h, true);
         for y in 0..base.height {
@@ -192,13 +205,9 @@ pub fn roll(h: &Heightfield, dx: usize, dy: usize) -> Heightfield {
 /// terrain, and its valley adherence fell from 1.00 to 0.89.)
 pub fn wrap_half_width(h: &Heightfield, patch: usize) -> usize {
     let (w, hh) = (h.width, h.height);
-    let p95 = |mut v: Vec<f32>| -> f32 {
+    let p95 = |mut v: Vec<f32>| {
         v.retain(|d| d.is_finite());
-        if v.is_empty() {
-            return 0.0;
-        }
-        let k = (v.len() * 95 / 100).min(v.len() - 1);
-        *v.select_nth_unstable_by(k, f32::total_cmp).1
+        percentile(&mut v, 95).unwrap_or(0.0)
     };
     let across_x = p95((0..hh).map(|y| (h.get(0, y) - h.get(w - 1, y)).abs()).collect());
     let across_y = p95((0..w).map(|x| (h.get(x, 0) - h.get(x, hh - 1)).abs()).collect());
@@ -210,12 +219,7 @@ pub fn wrap_half_width(h: &Heightfield, patch: usize) -> usize {
         .map(|i| (h.data[i + 1] - h.data[i]).abs())
         .filter(|d| d.is_finite())
         .collect();
-    let steep = if steps.is_empty() {
-        1.0
-    } else {
-        let k = steps.len() * 9 / 10;
-        steps.select_nth_unstable_by(k, f32::total_cmp).1.max(0.01)
-    };
+    let steep = percentile(&mut steps, 90).map_or(1.0, |s| s.max(0.01));
     let needed = (across_x.max(across_y) / (2.0 * steep)).ceil() as usize;
     needed.min(2 * patch).max(patch / 2 + patch / 4).min(w.min(hh) / 4)
 }
@@ -315,7 +319,7 @@ mod tests {
     #[test]
     fn extending_keeps_the_old_cells_and_makes_the_border() {
         let base = hills(40, 30, 0.0, 500.0);
-        let edit = Edit::extend(&base, [8, 0, 4, 6], 4).unwrap();
+        let edit = Edit::extend(&base, [8, 0, 4, 6], 4, 4096).unwrap();
         assert_eq!((edit.base.width, edit.base.height), (52, 36));
         let mut new = hills(52, 36, 2.0, 900.0);
         let stats = join(&mut new, &edit);
@@ -331,7 +335,9 @@ mod tests {
             assert!((new.get(7, y) - new.get(8, y)).abs() < 120.0, "row {y}: {} vs {}", new.get(7, y), new.get(8, y));
         }
         assert!(new.data.iter().all(|v| v.is_finite()));
-        assert!(Edit::extend(&base, [0; 4], 4).unwrap_err().contains("grows nothing"));
+        assert!(Edit::extend(&base, [0; 4], 4, 4096).unwrap_err().contains("grows nothing"));
+        let e = Edit::extend(&base, [usize::MAX, 0, 1, 0], 4, 4096).unwrap_err();
+        assert!(e.contains("beyond the largest side the job takes (4096 cells)"), "{e}");
     }
 
     #[test]

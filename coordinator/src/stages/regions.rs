@@ -37,6 +37,7 @@ use crate::evaluation::quality::{seam_score, SeamScore};
 use crate::job::SynthError;
 use crate::stages::base_surface::BaseSurface;
 use ridgeline_terrain::grid::{distance_transform_by, Grid, Heightfield};
+use ridgeline_terrain::height_stats::percentile;
 use ridgeline_terrain::shard::{ShardScorer, OUTPUT_LEVEL};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -355,7 +356,6 @@ pub struct RegionPass<'a> {
 /// Makes region `r` anew on `canvas` (a later pass: see the module header).
 pub fn remake(canvas: &mut Canvas, regions: &Regions, r: usize, pass: &RegionPass<'_>) -> Result<RegionStats, SynthError> {
     let p = canvas.patch;
-    let (w, h) = (canvas.heights.width, canvas.heights.height);
     let mask = regions.pass_mask(r);
     let edit = Edit::new(canvas.heights.clone(), mask, regions.blend).map_err(SynthError::Config)?;
     let mut c = Canvas::seeded(&edit.base, |i| !edit.mask.data[i], p);
@@ -386,17 +386,19 @@ pub fn remake(canvas: &mut Canvas, regions: &Regions, r: usize, pass: &RegionPas
     let join = pass.pool.install(|| editing::join(&mut c.heights, &edit));
     canvas.heights = std::mem::replace(&mut c.heights, Grid::new(0, 0, 0.0));
     canvas.take_provenance(&c, &edit.mask.data);
-    let mut stats = stats_of(canvas, regions, r, pass.shards);
-    (stats.pass_cells, stats.user_patches, stats.placed, stats.fills) =
-        (edit.mask.data.iter().filter(|&&m| m).count(), ups.len(), placed.placed, filled.fills);
-    stats.join = Some(join);
-    debug_assert_eq!((w, h), (canvas.heights.width, canvas.heights.height));
-    Ok(stats)
+    Ok(RegionStats {
+        pass_cells: edit.mask.data.iter().filter(|&&m| m).count(),
+        user_patches: ups.len(),
+        placed: placed.placed,
+        fills: filled.fills,
+        join: Some(join),
+        ..RegionStats::named(regions, r)
+    })
 }
 
-/// The figures of region `r` as `canvas` has it now: its cells, and the exemplars its
-/// cells beyond the blend bands came from (named as `shards` name them).
-pub fn stats_of(canvas: &Canvas, regions: &Regions, r: usize, shards: &[Arc<dyn ShardScorer>]) -> RegionStats {
+/// The exemplars region `r`'s cells beyond the blend bands came from, as `canvas`
+/// has it now (named as `shards` name them).
+pub fn exemplars_used(canvas: &Canvas, regions: &Regions, r: usize, shards: &[Arc<dyn ShardScorer>]) -> Vec<String> {
     let (w, h) = (regions.labels.width, regions.labels.height);
     let labels = &regions.labels.data;
     let beyond = distance_transform_by(w, h, |i| labels[i] as usize != r);
@@ -410,11 +412,17 @@ pub fn stats_of(canvas: &Canvas, regions: &Regions, r: usize, shards: &[Arc<dyn 
     used.dedup();
     let names: Vec<(u32, String)> = shards.iter().flat_map(|s| s.sources(OUTPUT_LEVEL)).map(|s| (s.source, s.name)).collect();
     let name = |id: u32| names.iter().find(|(s, _)| *s == id).map_or_else(|| format!("source {id}"), |(_, n)| n.clone());
-    RegionStats {
-        name: regions.regions[r].name.clone(),
-        cells: labels.iter().filter(|&&l| l as usize == r).count(),
-        exemplars_used: used.into_iter().map(name).collect(),
-        ..Default::default()
+    used.into_iter().map(name).collect()
+}
+
+impl RegionStats {
+    /// Region `r`'s name and cells, nothing done yet.
+    pub fn named(regions: &Regions, r: usize) -> RegionStats {
+        RegionStats {
+            name: regions.regions[r].name.clone(),
+            cells: regions.labels.data.iter().filter(|&&l| l as usize == r).count(),
+            ..Default::default()
+        }
     }
 }
 
@@ -454,14 +462,7 @@ pub fn boundary_steps(h: &Heightfield, labels: &Grid<u8>) -> (f32, f32) {
             }
         }
     }
-    let p95 = |mut v: Vec<f32>| {
-        if v.is_empty() {
-            return 0.0;
-        }
-        let k = (v.len() * 95 / 100).min(v.len() - 1);
-        *v.select_nth_unstable_by(k, f32::total_cmp).1
-    };
-    (p95(across), p95(inside))
+    (percentile(&mut across, 95).unwrap_or(0.0), percentile(&mut inside, 95).unwrap_or(0.0))
 }
 
 #[cfg(test)]

@@ -24,6 +24,7 @@
 
 use rayon::prelude::*;
 use ridgeline_terrain::grid::{distance_transform_by, Heightfield};
+use ridgeline_terrain::height_stats::percentile;
 
 /// Smoothing passes, each with its curvature measured again.
 pub const PASSES: usize = 3;
@@ -84,11 +85,7 @@ pub fn smooth_seams(h: &mut Heightfield, provenance: &[u32], patch: usize) -> Sm
     };
     // the terrain's own curvature, over the cells outside the band (every 3rd: enough)
     let mut inside: Vec<f32> = (0..n).step_by(3).filter(|&i| dist.data[i] > r).map(|i| curvature(&h.data, i)).collect();
-    if inside.is_empty() {
-        return stats;
-    }
-    let k = (inside.len() * REFERENCE_PERCENTILE / 100).min(inside.len() - 1);
-    let reference = inside.select_nth_unstable_by(k, f32::total_cmp).1.max(1e-3);
+    let Some(reference) = percentile(&mut inside, REFERENCE_PERCENTILE).map(|c| c.max(1e-3)) else { return stats };
     stats.reference_curvature_m = reference;
     let mut moved = vec![false; band.len()];
     for _ in 0..PASSES {
