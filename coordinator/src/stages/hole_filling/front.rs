@@ -5,8 +5,13 @@
 //! lattice points whose windows the merge touched (Crause's large terrain spent 1841 s
 //! of 3271 s rescanning the boundary, table 10.9). A lattice point is on the front
 //! when its window holds both filled and empty cells. Priority = fit × data, after
-//! Criminisi et al. (2004): data is the mean slope along the front relative to the
-//! output's typical slope, so structures that run into a hole are continued first.
+//! Criminisi et al. (2004), whose data term (the isophote across the front) becomes
+//! flow here: the mean slope of the front's cells along the normal into the hole,
+//! relative to the output's typical slope, a fall into the hole counted whole and a
+//! rise at a quarter ([`flow_into_hole`]), so a valley that runs into a hole is
+//! continued first, while the ground its water must reach is still open (issue 25,
+//! item 3; the slope in any direction, used before, ranked a front running along a
+//! hillside as high as one a valley crosses).
 //! Criminisi's confidence (the filled fraction) would rank a window three quarters
 //! known above one half known, so the front advanced a quarter patch per fill (a
 //! median of 0.75 known on the shared sketches); *fit* = 1 − |filled fraction −
@@ -73,14 +78,14 @@ impl FrontSums {
                 let v = h.get(x, y);
                 if !v.is_nan() {
                     rf += 1;
-                    let nb =
-                        [(x as i64 + 1, y as i64), (x as i64 - 1, y as i64), (x as i64, y as i64 + 1), (x as i64, y as i64 - 1)];
-                    if nb.iter().any(|&(a, b)| h.get_i(a, b).map(|v| v.is_nan()).unwrap_or(false)) {
+                    let nb = [(1i64, 0i64), (-1, 0), (0, 1), (0, -1)];
+                    let at = |d: (i64, i64), k: i64| h.get_i(x as i64 + k * d.0, y as i64 + k * d.1);
+                    if nb.iter().any(|&d| at(d, 1).map(|v| v.is_nan()).unwrap_or(false)) {
                         let mut g = 0f32;
-                        for &(a, b) in &nb {
-                            if let Some(u) = h.get_i(a, b) {
-                                if !u.is_nan() {
-                                    g = g.max((u - v).abs());
+                        for &d in &nb {
+                            if at(d, 1).map(|u| u.is_nan()).unwrap_or(false) {
+                                if let Some(b) = at(d, -1).filter(|b| !b.is_nan()) {
+                                    g = g.max(flow_into_hole(b - v));
                                 }
                             }
                         }
@@ -97,7 +102,7 @@ impl FrontSums {
         t
     }
 
-    /// Filled and empty cells of the window, and the mean slope along its front.
+    /// Filled and empty cells of the window, and the mean flow into the hole along its front.
     fn window(&self, win: &Win) -> (usize, usize, f32) {
         let (a, b) = (win.x0 - self.x0, win.x0 - self.x0 + win.w);
         let (c, d) = (win.y0 - self.y0, win.y0 - self.y0 + win.h);
@@ -108,6 +113,23 @@ impl FrontSums {
         let slope = self.slope[k11] + self.slope[k00] - self.slope[k01] - self.slope[k10];
         let mean = if front > 0 { (slope / front as f64) as f32 } else { 0.0 };
         (filled, win.w * win.h - filled, mean)
+    }
+}
+
+/// Weight of a front cell's rise into the hole against its fall (see [`flow_into_hole`]).
+pub const UPHILL_SHARE: f32 = 0.25;
+
+/// The data term of one front cell (Criminisi's isophote term turned to flow): its
+/// slope along the normal into the hole, the height of the cell behind it less its
+/// own (`drop`), counted whole where water runs into the hole — a valley reaching the
+/// front, whose continuation must be filled while its outlet is still open — and at
+/// [`UPHILL_SHARE`] where the ground rises into it (a ridge reaching the front).
+/// Slope along the front itself is no structure to continue and counts nothing.
+pub fn flow_into_hole(drop: f32) -> f32 {
+    if drop >= 0.0 {
+        drop
+    } else {
+        -UPHILL_SHARE * drop
     }
 }
 
@@ -338,4 +360,34 @@ pub(super) fn fill_query(canvas: &Canvas, cx: usize, cy: usize, env: &FillEnv) -
     let coherence = from.into_iter().map(|(s, n)| (s, n as f32 / t.filled.max(1) as f32)).collect();
     let q = FillQuery { id: 0, samples, relief, noise: t.noise, coherence, avoid: canvas.avoid_list(cx, cy) };
     (q, (t, relief, base))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 64 x 32 canvas filled left of column 32, its known half a plane of `slope(x, y)`.
+    fn half_filled(slope: impl Fn(usize, usize) -> f32) -> Canvas {
+        let mut c = Canvas::new(64, 32, 16);
+        for y in 0..32 {
+            for x in 0..32 {
+                c.heights.set(x, y, slope(x, y));
+            }
+        }
+        c
+    }
+
+    #[test]
+    fn the_data_term_follows_flow_into_the_hole_not_slope_along_the_front() {
+        let win = Win::new(32, 16, 16, 64, 32);
+        let mean = |c: &Canvas| FrontSums::over(c, 0, 0, 64, 32).window(&win).2;
+        // falling 10 m a cell towards the hole (a valley floor running into it)
+        let into = mean(&half_filled(|x, _| 1000.0 - 10.0 * x as f32));
+        // rising 10 m a cell towards it (a ridge), and sloping along the front only
+        let rising = mean(&half_filled(|x, _| 10.0 * x as f32));
+        let along = mean(&half_filled(|_, y| 10.0 * y as f32));
+        assert!((into - 10.0).abs() < 1e-3, "{into}");
+        assert!((rising - 10.0 * UPHILL_SHARE).abs() < 1e-3, "{rising}");
+        assert!(along.abs() < 1e-3, "a hillside along the front is no structure to continue: {along}");
+    }
 }
