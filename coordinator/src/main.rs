@@ -365,20 +365,14 @@ fn edit_of(a: &SynthArgs) -> Result<Option<ridgeline::stages::editing::Edit>> {
     }
     let base = ridgeline_terrain::dem_formats::read_dem(base_path, None, a.max_side)?.heights;
     let blend = a.blend.map_or(a.patch_size / 4, |b| b as usize);
-    let sketch_grid = |p: &Path| -> Result<ridgeline_terrain::grid::Grid<u8>> {
-        Ok(if p.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")) {
-            read_stroke_sketch(p, a.max_side)?.rasterize()
-        } else {
-            ridgeline_terrain::io::read_sketch(p, a.max_side)?
-        })
-    };
     let edit = if let Some(m) = &a.mask {
         let bytes = ridgeline_terrain::io::read_input(m, ridgeline_terrain::io::raster_byte_limit(a.max_side))?;
         let img = ridgeline_terrain::io::decode_image(m, &bytes, a.max_side)?.to_luma8();
         Edit::new(base, ridgeline::stages::editing::mask_of_image(&img), blend).map_err(named(m))?
     } else if let Some(old) = &a.changed_from {
         let Some(new) = &a.sketch else { bail!("--changed-from {}: give the new --sketch too", old.display()) };
-        Edit::changed(base, &sketch_grid(old)?, &sketch_grid(new)?, a.patch_size, blend).map_err(named(old))?
+        Edit::changed(base, &sketch_grid(old, a.max_side)?, &sketch_grid(new, a.max_side)?, a.patch_size, blend)
+            .map_err(named(old))?
     } else if let Some(by) = &a.extend {
         let v: Vec<usize> = by.split(',').map(|v| v.trim().parse()).collect::<Result<_, _>>().unwrap_or_default();
         let Ok(by) = <[usize; 4]>::try_from(v) else {
@@ -389,6 +383,15 @@ fn edit_of(a: &SynthArgs) -> Result<Option<ridgeline::stages::editing::Edit>> {
         bail!("--base {}: say what to make anew with --mask, --changed-from or --extend", base_path.display())
     };
     Ok(Some(edit))
+}
+
+/// A sketch file as a raster: a PNG as it is, a vector sketch (`.json`) drawn.
+fn sketch_grid(p: &Path, max_side: u32) -> Result<ridgeline_terrain::grid::Grid<u8>> {
+    Ok(if p.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")) {
+        read_stroke_sketch(p, max_side)?.rasterize()
+    } else {
+        ridgeline_terrain::io::read_sketch(p, max_side)?
+    })
 }
 
 /// A vector sketch file (`--sketch sketch.json`), read with a size limit.
@@ -440,7 +443,7 @@ fn evaluate(a: EvaluateArgs) -> Result<()> {
         .with_context(|| format!("{}: cannot read the terrain", a.terrain.display()))?;
     let sketch = match &a.sketch {
         Some(p) => {
-            let s = ridgeline_terrain::io::read_sketch(p, ridgeline_terrain::io::DEFAULT_MAX_SIDE)?;
+            let s = sketch_grid(p, ridgeline_terrain::io::DEFAULT_MAX_SIDE)?;
             if (s.width, s.height) != (terrain.width, terrain.height) {
                 bail!("{}: {} x {} but the terrain is {} x {}", p.display(), s.width, s.height, terrain.width, terrain.height);
             }

@@ -567,6 +567,22 @@ fn vector_sketches_and_elevation_ranges_are_checked_and_honoured() {
     assert_eq!((h.width, h.height), (160, 128));
     let (lo, hi) = h.finite_range().unwrap();
     assert!((lo + 200.0).abs() < 0.5 && (hi - 1800.0).abs() < 0.5, "{lo}..{hi}");
+    // `evaluate` reads the vector sketch too, and measures adherence against it
+    let o = bin()
+        .args(["evaluate", "--json", "--patch-size", "32", "--terrain"])
+        .arg(&out)
+        .arg("--exemplars")
+        .arg(&lib)
+        .arg("--sketch")
+        .arg(&sketch)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let ev: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for kind in ["ridge", "valley"] {
+        let a = ev["adherence"][kind].as_f64().unwrap_or(-1.0);
+        assert!(a >= 0.9, "{kind} adherence against the vector sketch: {}", ev["adherence"]);
+    }
 
     // the same with erosion: rivers cut down, the range asked for still spanned, the
     // report says what erosion did

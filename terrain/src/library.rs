@@ -185,6 +185,23 @@ pub fn scan_library(dir: &Path) -> Result<Vec<ExemplarSpec>> {
             meta.insert(file, (cell, unit));
         }
     }
+    // a PNG carries no unit or cell size of its own: say so when nothing gives them,
+    // since a library in feet read as metres makes terrain three times too steep
+    let unlisted: Vec<String> = files
+        .iter()
+        .filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")))
+        .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+        .filter(|n| !meta.contains_key(n))
+        .collect();
+    if !unlisted.is_empty() {
+        let shown = unlisted.iter().take(4).cloned().collect::<Vec<_>>().join(", ");
+        tracing::warn!(
+            library = %dir.display(),
+            "{} PNG DEM(s) ({shown}{}) have no unit or cell size and no dems.csv beside them lists them: their heights are taken as metres at the job's cell size",
+            unlisted.len(),
+            if unlisted.len() > 4 { ", …" } else { "" }
+        );
+    }
     Ok(files
         .into_iter()
         .map(|p| {

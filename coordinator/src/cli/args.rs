@@ -336,7 +336,7 @@ pub struct EvaluateArgs {
     /// The terrain (.tif, .png with its sidecar, .r16 with its sidecar).
     #[arg(long)]
     pub terrain: PathBuf,
-    /// The sketch it was made from (for ridge and valley adherence).
+    /// The sketch it was made from (a PNG or a vector sketch; for ridge and valley adherence).
     #[arg(long)]
     pub sketch: Option<PathBuf>,
     /// The exemplar library it was made from.
