@@ -394,9 +394,9 @@ fn sketch_grid(p: &Path, max_side: u32) -> Result<ridgeline_terrain::grid::Grid<
     })
 }
 
-/// A vector sketch file (`--sketch sketch.json`), read with a size limit.
-/// A vector sketch (JSON: width, height, strokes with pen, width and optional per-point
-/// widths and elevations), read and checked, every problem naming the file.
+/// A vector sketch file (`--sketch sketch.json`: width, height, strokes with pen, width
+/// and optional per-point widths and elevations), read with a size limit and checked,
+/// every problem naming the file.
 fn read_stroke_sketch(path: &Path, max_side: u32) -> Result<ridgeline::session::StrokeSketch> {
     let text = ridgeline_terrain::io::read_text_input(path)?;
     let sketch: ridgeline::session::StrokeSketch = serde_json::from_str(&text)

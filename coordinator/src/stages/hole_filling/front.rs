@@ -78,17 +78,19 @@ impl FrontSums {
                 let v = h.get(x, y);
                 if !v.is_nan() {
                     rf += 1;
-                    let nb = [(1i64, 0i64), (-1, 0), (0, 1), (0, -1)];
                     let at = |d: (i64, i64), k: i64| h.get_i(x as i64 + k * d.0, y as i64 + k * d.1);
-                    if nb.iter().any(|&d| at(d, 1).map(|v| v.is_nan()).unwrap_or(false)) {
-                        let mut g = 0f32;
-                        for &d in &nb {
-                            if at(d, 1).map(|u| u.is_nan()).unwrap_or(false) {
-                                if let Some(b) = at(d, -1).filter(|b| !b.is_nan()) {
-                                    g = g.max(flow_into_hole(b - v));
-                                }
+                    // a front cell has an empty 4-neighbour; its data is the largest
+                    // flow into the hole over those, from the filled cell behind it
+                    let (mut on_front, mut g) = (false, 0f32);
+                    for d in [(1i64, 0i64), (-1, 0), (0, 1), (0, -1)] {
+                        if at(d, 1).is_some_and(|u| u.is_nan()) {
+                            on_front = true;
+                            if let Some(b) = at(d, -1).filter(|b| !b.is_nan()) {
+                                g = g.max(flow_into_hole(b - v));
                             }
                         }
+                    }
+                    if on_front {
                         rn += 1;
                         rs += g as f64;
                     }
