@@ -461,14 +461,25 @@ impl Session {
         let budget = self.settings.max_memory;
         let check = |lib: &[(String, u64)]| crate::job::memory_budget::check(sketch, width, height, lib, evaluated, budget);
         let cell = self.settings.cell_size.or_else(|| common_cell_size(&self.sources));
+        // with a detail level, every source at the coarse cell and the fine ones (or
+        // the generator made for the job, at most its largest) at the output's too
+        let detail = crate::stages::detail_level::plan(&self.settings, &self.sources, self.sketch.size());
+        let cell = detail.as_ref().map_or(cell, |d| Some(d.coarse_cell));
         let mut library: Vec<(String, u64)> = match self.backend {
             Backend::InProcess { .. } => self.sources.iter().map(|s| (s.name(), s.cells_at(cell))).collect(),
             #[allow(unreachable_patterns)]
             _ => Vec::new(),
         };
+        if let (Some(d), Backend::InProcess { .. }) = (&detail, &self.backend) {
+            library.extend(d.fine.iter().map(|&i| &self.sources[i as usize]).map(|s| (s.name(), s.cells_at(Some(d.out_cell)))));
+            if d.fine.is_empty() {
+                let side = crate::stages::detail_level::GENERATOR_SIDE.1 as u64;
+                library.push(("the detail generator".into(), side * side));
+            }
+        }
         let mut est = check(&library);
         if est.is_err() {
-            let mut order: Vec<usize> = (0..library.len()).filter(|&i| library[i].1 > 0).collect();
+            let mut order: Vec<usize> = (0..self.sources.len().min(library.len())).filter(|&i| library[i].1 > 0).collect();
             order.sort_by_key(|&i| std::cmp::Reverse(library[i].1));
             for i in order {
                 library[i].1 = match self.sources[i].verified_cells(cell, self.settings.max_side) {

@@ -72,6 +72,98 @@ fn missing_and_corrupt_inputs_are_named_and_nothing_is_clobbered() {
 }
 
 #[test]
+fn an_output_finer_than_its_exemplars_gets_detail_of_its_own() {
+    // 90 m "DEMs" (rough fBm generators) and an output at 15 m: the synthesis runs at
+    // 90 m and the finer detail comes from a generator fitted to that terrain (or from
+    // a fine source, where the library has one), not from exemplars upsampled 6 times
+    let d = tmp("detail");
+    let sketch = small_sketch(&d);
+    let gen = |kind: &str, name: &str, cell: u32, side: u32, wave: u32| {
+        format!("[[generator]]\ngenerator = \"{kind}\"\n[generator.params]\nname = \"{name}\"\nwidth = {side}\nheight = {side}\ncell_size_m = {cell}\nseed = 5\nwavelength_cells = {wave}\noctaves = 7\ngain = 0.62\nlacunarity = 2\nrelief_m = 1500\nbase_m = 300\n")
+    };
+    let coarse_only = d.join("coarse.toml");
+    std::fs::write(&coarse_only, gen("fbm", "crests", 90, 384, 48) + &gen("fbm", "more crests", 90, 320, 40)).unwrap();
+    let with_fine = d.join("fine.toml");
+    std::fs::write(
+        &with_fine,
+        gen("fbm", "crests", 90, 384, 48) + &gen("fbm", "more crests", 90, 320, 40) + &gen("fbm", "fine", 15, 512, 24),
+    )
+    .unwrap();
+    let synth = |lib: &Path, cell: &str, size: &str, extra: &[&str], out: &str| {
+        let o = bin()
+            .args(["synth", "--patch-size", "32", "--seed", "2", "--cell-size", cell, "--size", size, "--sketch"])
+            .arg(&sketch)
+            .arg("--exemplars")
+            .arg(lib)
+            .arg("--cache-dir")
+            .arg(d.join("cache"))
+            .arg("--out")
+            .arg(d.join(out))
+            .arg("--report")
+            .arg(d.join(format!("{out}.json")))
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let report: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join(format!("{out}.json"))).unwrap()).unwrap();
+        (ridgeline_terrain::dem_formats::read_dem(&d.join(out), None, 4096).unwrap().heights, report)
+    };
+    let (t, report) = synth(&coarse_only, "15", "384x320", &[], "fine.tif");
+    let detail = &report["detail"];
+    assert_eq!(detail["factor"], 6, "{detail}");
+    assert_eq!(detail["coarse_cell_m"], 90.0);
+    assert_eq!(detail["fine_sources"][0], "detail (fbm, made for the job)");
+    assert_eq!(detail["generator"]["params"]["cell_size_m"], 15.0);
+    assert_eq!(report["cell_size_m"], 15.0);
+    // the exemplars that made the form are the report's, not the generator alone
+    let used = report["placements_per_exemplar"].as_object().unwrap();
+    assert!(used.contains_key("crests") || used.contains_key("more crests"), "{used:?}");
+    // steps grow with distance as in terrain (Hurst exponent below 1), not as in
+    // an interpolation of coarser cells (1: a step of six cells is six of one)
+    let median_step = |t: &ridgeline_terrain::grid::Heightfield, lag: usize| {
+        let mut v: Vec<f32> = (0..t.height)
+            .flat_map(|y| (lag..t.width).map(move |x| (x, y)))
+            .map(|(x, y)| (t.get(x, y) - t.get(x - lag, y)).abs())
+            .collect();
+        v.sort_by(f32::total_cmp);
+        v[v.len() / 2]
+    };
+    let hurst = |t| (median_step(t, 6) / median_step(t, 1)).ln() / 6f32.ln();
+    assert!(hurst(&t) < 0.9, "finer detail: Hurst exponent {} at 15 m", hurst(&t));
+    // ... and continue the 90 m terrain's own: the exponent the generator was made for
+    let fitted = detail["calibration"]["hurst"].as_f64().unwrap() as f32;
+    assert!((hurst(&t) - fitted).abs() < 0.1, "Hurst exponent {} at 15 m, {fitted} at 90 m", hurst(&t));
+    let (upsampled, r_up) = synth(&coarse_only, "15", "384x320", &["--no-large-scale"], "upsampled.tif");
+    assert!(r_up.get("detail").is_none(), "without the large-scale form, no detail level");
+    // below the exemplars' cells, upsampled ones bend only where their cells meet:
+    // the median curvature along rows against the median step
+    let bend = |t: &ridgeline_terrain::grid::Heightfield| {
+        let mut v: Vec<f32> = (0..t.height)
+            .flat_map(|y| (1..t.width - 1).map(move |x| (x, y)))
+            .map(|(x, y)| (t.get(x + 1, y) - 2.0 * t.get(x, y) + t.get(x - 1, y)).abs())
+            .collect();
+        v.sort_by(f32::total_cmp);
+        v[v.len() / 2] / median_step(t, 1)
+    };
+    assert!(
+        bend(&t) > 0.6 && bend(&upsampled) < 0.45,
+        "curvature over step: {} with detail, {} upsampled",
+        bend(&t),
+        bend(&upsampled)
+    );
+    // realism figures at the exemplars' cell: the terrain averaged to 90 m
+    let e = &report["evaluation"];
+    assert!(e["landform_distance"].as_f64().unwrap() < 0.35, "{e}");
+    // a fine source in the library gives the detail instead of a generator
+    let (_, r_fine) = synth(&with_fine, "15", "384x320", &[], "with-fine.tif");
+    assert_eq!(r_fine["detail"]["fine_sources"], serde_json::json!(["fine"]), "{}", r_fine["detail"]);
+    assert!(r_fine["detail"].get("generator").is_none());
+    // the same bytes on one thread
+    let (again, _) = synth(&coarse_only, "15", "384x320", &["--threads", "1"], "again.tif");
+    assert_eq!(again.data, t.data, "the same bytes on one thread");
+}
+
+#[test]
 fn a_library_of_generators_alone_makes_a_terrain_and_the_same_twice() {
     // no DEM at all: two fBm generators in a manifest (a first try needs no download)
     let d = tmp("generated");

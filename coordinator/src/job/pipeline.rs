@@ -9,7 +9,10 @@
 //!    valleys low towards their outlets), which every patch is merged on; on a large
 //!    output the whole synthesis (stages 3 to 8) runs first at a coarser level
 //!    ([`coarse_level`]) on that target, and the coarse terrain becomes the surface
-//!    the output level's patches are merged on;
+//!    the output level's patches are merged on; on an output whose cells are finer
+//!    than its exemplars', that coarser level is at their cell size and the output
+//!    level is made from fine sources only, or from a generator made for the job
+//!    ([`detail_level`]);
 //! 4. [`user_patches`] — user patches in BFS order with control points;
 //! 5. [`place_features`] — round 1: every shard scores blocks of user patches
 //!    (`ShardScorer::score_block`) on a producer thread, while round 2
@@ -61,7 +64,9 @@ use super::stage_runner::StageRunner;
 use super::SynthError;
 use crate::canvas::Canvas;
 use crate::progress::Stage;
-use crate::stages::coarse_level::{self, CoarseJob};
+use crate::stages::base_surface::DETAIL_BAND;
+use crate::stages::coarse_level::{self, CoarseJob, CoarseLevel};
+use crate::stages::detail_level::{self, DetailPlan, DetailStats};
 use crate::stages::drainage::{breach_depressions, breach_depressions_on_torus, ridge_crests};
 use crate::stages::editing;
 use crate::stages::erosion::{erode, STEPS as EROSION_STEPS};
@@ -91,6 +96,9 @@ pub struct SynthOutput {
     pub canvas: Canvas,
     /// The large-scale form the patches were merged on (none with `--no-large-scale`).
     pub form: Option<large_scale::LargeScale>,
+    /// On an output finer than its exemplars, the level at their cell size its
+    /// detail was laid on (`detail_level`): the realism figures are taken there.
+    pub detail_level: Option<CoarseLevel>,
 }
 
 impl SynthOutput {
@@ -120,9 +128,15 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
     let (w, h) = job.sketch.size();
     let in_process = job.backend.in_process();
     let cell_known = set.cell_size.or_else(|| exemplars::common_cell_size(job.sources)).is_some();
-    let coarse = if set.large_scale { coarse_level::factor_for(w, h, p, cell_known) } else { None };
-    let load =
-        LoadSettings { patch: p, cell_size: set.cell_size, max_side: set.max_side, cache_dir: set.cache_dir.clone(), coarse };
+    // an output finer than its exemplars: the synthesis at their cell size first (the
+    // shards prepared there only), the detail finer than it from fine sources
+    let detail = detail_level::plan(set, job.sources, (w, h));
+    let coarse = match &detail {
+        None if set.large_scale => coarse_level::factor_for(w, h, p, cell_known),
+        _ => None,
+    };
+    let (patch, cell_size) = detail.as_ref().map_or((p, set.cell_size), |d| (d.coarse_patch, Some(d.coarse_cell)));
+    let load = LoadSettings { patch, cell_size, max_side: set.max_side, cache_dir: set.cache_dir.clone(), coarse };
     let what = job.library.map_or_else(|| "(exemplars in memory)".to_string(), |p| p.display().to_string());
     // the regions' passes, largest first (none without regions)
     let region_order = set.regions.as_ref().map_or_else(Vec::new, |r| r.order());
@@ -154,35 +168,54 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
         (true, Some(lib)) => Some(run.run(Stage::LargeScale, |_| Ok(large_scale::plan(&sk, &lib, p, set.elevation_range)))?),
         _ => None,
     };
-    // on a large output, the whole synthesis first at the coarse level: its terrain is
-    // then the surface the output level's patches are merged on
-    let form = match (form, coarse, library_at(COARSE_LEVEL)) {
-        (Some(_), Some(f), Some(lib)) => Some(run.run(Stage::CoarseLevel, |cx| {
-            let mut c = CoarseJob::new(&sk, f, &lib, p, set.elevation_range);
-            let ups = user_patches(&c.sketch, p);
-            let settings = PlacementSettings {
-                level: COARSE_LEVEL,
-                base: Some(&c.form.target),
-                k: set.k,
-                block: set.block,
-                seed: set.seed,
-                max_batch: set.max_batch,
-                progress: &|_, _, _| {},
-                cancel: cx.cancel,
-            };
-            place_features(&mut c.canvas, &ups, first_shards, &settings, cx.pool)?;
-            let empty = c.canvas.empty as u64;
-            let on_fill = |left: u64, _: &Canvas| cx.progress(empty - left, empty);
-            let fill = FillSettings { level: COARSE_LEVEL, seed: set.seed, base: Some(&c.form.target) };
-            fill_holes(&mut c.canvas, first_shards, &fill, cx.pool, &on_fill, cx.cancel)?;
-            if set.fit_sketch {
-                cx.install(|| fit_to_sketch(&mut c.canvas.heights, &c.sketch, p));
-            }
-            Ok(cx.install(|| c.finish(p)))
-        })?),
-        (form, _, _) => form,
+    // on a large output, the whole synthesis first at the coarse level (on an output
+    // finer than its exemplars, at theirs: the detail level's): its terrain is then
+    // the surface the output level's patches are merged on
+    let coarse_run = match (&detail, coarse) {
+        (Some(d), _) => Some((OUTPUT_LEVEL, d.factor, d.coarse_patch, detail_level::BAND)),
+        (None, Some(f)) => Some((COARSE_LEVEL, f, p, DETAIL_BAND)),
+        (None, None) => None,
+    };
+    let (form, coarse_done, fine) = match (form, coarse_run) {
+        (Some(_), Some((level, f, cp, band))) if library_at(level).is_some() => {
+            let lib = library_at(level).expect("checked");
+            let (form, c, fine) = run.run(Stage::CoarseLevel, |cx| {
+                let mut c = CoarseJob::new(&sk, f, &lib, cp, set.elevation_range);
+                let ups = user_patches(&c.sketch, cp);
+                let settings = PlacementSettings {
+                    level,
+                    base: Some(&c.form.target),
+                    k: set.k,
+                    block: set.block,
+                    seed: set.seed,
+                    max_batch: set.max_batch,
+                    progress: &|_, _, _| {},
+                    cancel: cx.cancel,
+                };
+                place_features(&mut c.canvas, &ups, first_shards, &settings, cx.pool)?;
+                let empty = c.canvas.empty as u64;
+                let on_fill = |left: u64, _: &Canvas| cx.progress(empty - left, empty);
+                let fill = FillSettings { level, seed: set.seed, base: Some(&c.form.target) };
+                fill_holes(&mut c.canvas, first_shards, &fill, cx.pool, &on_fill, cx.cancel)?;
+                if set.fit_sketch {
+                    cx.install(|| fit_to_sketch(&mut c.canvas.heights, &c.sketch, cp));
+                }
+                let (form, c) = cx.install(|| c.finish(cp, band));
+                // the output level's sources: the library's fine ones, else a generator
+                // made for the job from the coarse terrain (see `detail_level`)
+                let fine = match &detail {
+                    Some(d) => Some(cx.install(|| load_fine(d, &c, &job, &load, p))?),
+                    None => None,
+                };
+                Ok((form, c, fine))
+            })?;
+            (Some(form), Some(c), fine)
+        }
+        (form, _) => (form, None, None),
     };
     let base = form.as_ref().map(|f| &f.target);
+    // the shards the output level is made from
+    let level_shards = fine.as_ref().map_or(first_shards, |(s, _)| s);
 
     // an edit places only the strokes in the area it remakes
     let ups = run.run(Stage::UserPatches, |_| {
@@ -213,7 +246,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
             progress: &progress,
             cancel: cx.cancel,
         };
-        Ok(place_features(&mut canvas, &ups, first_shards, &settings, cx.pool)?)
+        Ok(place_features(&mut canvas, &ups, level_shards, &settings, cx.pool)?)
     })?;
     run.record("round1_scoring", placement.round1_s);
     let features_only = set.keep_features_only.then(|| canvas.heights.clone());
@@ -230,12 +263,22 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
             cx.placements(c);
         };
         let fill = FillSettings { level: OUTPUT_LEVEL, seed: set.seed, base };
-        Ok(fill_holes(&mut canvas, first_shards, &fill, cx.pool, &on_fill, cx.cancel)?)
+        Ok(fill_holes(&mut canvas, level_shards, &fill, cx.pool, &on_fill, cx.cancel)?)
     })?;
 
     let sketch_fit = match set.fit_sketch {
         true => run.run(Stage::SketchFit, |cx| Ok(cx.install(|| fit_to_sketch(&mut canvas.heights, &sk, p))))?,
         false => FitStats::default(),
+    };
+
+    // a detail level's output speaks of the exemplars that made its form: the coarse
+    // level's provenance (its own placements, of detail only, are counted above)
+    let detail_stats = match (&fine, &coarse_done) {
+        (Some((_, stats)), Some(c)) => {
+            detail_level::adopt_coarse_provenance(&mut canvas, &c.canvas, c.factor);
+            Some(stats.clone().measured(&canvas.heights, &c.canvas.heights))
+        }
+        _ => None,
     };
 
     // every region but the largest made anew from its own exemplars (see `regions`)
@@ -355,11 +398,19 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
         regions::judge_boundaries(report, &canvas.heights, r);
     }
 
+    // the report lists the fine sources' shards beside the library's
+    let (report_shards, times_before) = match &fine {
+        Some((fine_shards, _)) => {
+            let before = times_before.iter().cloned().chain(fine_shards.iter().map(|_| ShardTimes::default())).collect();
+            ([&shards[..], &fine_shards[..]].concat(), before)
+        }
+        None => (shards.clone(), times_before),
+    };
     let report = SynthReport::of_job(JobResults {
         settings: set,
-        cell_size_m: ex.cell_size_m,
+        cell_size_m: detail.as_ref().map_or(ex.cell_size_m, |d| Some(d.out_cell)),
         timings: run.timings(),
-        shards,
+        shards: &report_shards,
         times_before: &times_before,
         sketch: &sk,
         user_patches: &ups,
@@ -373,7 +424,43 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
         wrap,
         regions,
         seam_smoothing,
+        detail: detail_stats,
     });
-    let out = SynthOutput { sketch_image, features_only, sketch: sk, user_patches: ups, canvas, form };
+    // the detail level's coarse level, for the realism figures at the exemplars' cell
+    let detail_level = coarse_done.filter(|_| detail.is_some());
+    let out = SynthOutput { sketch_image, features_only, sketch: sk, user_patches: ups, canvas, form, detail_level };
     Ok((out, report))
+}
+
+/// The output level's shards of a job with a detail level: the library's fine
+/// sources, or else a generator made for the job from the coarse terrain
+/// (`detail_level::detail_generator`), prepared at the output's cell size.
+fn load_fine(
+    d: &DetailPlan,
+    coarse: &CoarseLevel,
+    job: &JobInputs,
+    coarse_load: &LoadSettings,
+    patch: usize,
+) -> Result<(crate::shards::Shards, DetailStats), SynthError> {
+    let mut sources = job.sources.to_vec();
+    let mut stats =
+        DetailStats { factor: d.factor, coarse_cell_m: d.coarse_cell, coarse_patch: d.coarse_patch, ..Default::default() };
+    let only = match d.fine.is_empty() {
+        false => d.fine.clone(),
+        true => {
+            let (noise, cal) = detail_level::detail_generator(&coarse.canvas.heights, d, patch, job.settings.seed);
+            stats.generator = Some(noise.recipe());
+            stats.calibration = Some(cal);
+            sources.push(Arc::new(noise));
+            vec![sources.len() as u32 - 1]
+        }
+    };
+    stats.fine_sources = only.iter().map(|&i| sources[i as usize].name()).collect();
+    let load = LoadSettings { patch, cell_size: Some(d.out_cell), coarse: None, ..coarse_load.clone() };
+    let what = format!(
+        "{} (the detail level's fine sources)",
+        job.library.map_or_else(|| "(exemplars in memory)".into(), |p| p.display().to_string())
+    );
+    let loaded = exemplars::load(&sources, Some(&only), &what, job.fleet, job.backend.in_process(), &load)?;
+    Ok((loaded.shards, stats))
 }

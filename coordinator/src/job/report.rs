@@ -6,6 +6,7 @@
 use super::settings::JobSettings;
 use crate::canvas::Canvas;
 use crate::evaluation::quality::{adherence, seam_score, Adherence, SeamScore};
+use crate::stages::detail_level::DetailStats;
 use crate::stages::drainage::DrainageStats;
 use crate::stages::editing::EditStats;
 use crate::stages::erosion::ErosionStats;
@@ -76,6 +77,10 @@ pub struct SynthReport {
     /// What the curvature-weighted seam smoothing did (`--smooth-seams`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub seam_smoothing: Option<SmoothStats>,
+    /// On an output finer than its exemplars: the level at their cell size, the
+    /// sources of the finer detail and the steps it gave (`stages::detail_level`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub detail: Option<DetailStats>,
     /// Sketch adherence of the result, per kind: sampled centre-line points whose
     /// cross profile at patch/4 has the kind's shape (a crest for ridges, a floor for
     /// valleys).
@@ -113,6 +118,7 @@ pub struct JobResults<'a> {
     pub wrap: Option<WrapStats>,
     pub regions: Option<RegionsReport>,
     pub seam_smoothing: Option<SmoothStats>,
+    pub detail: Option<DetailStats>,
 }
 
 /// What the wrap stage did.
@@ -167,6 +173,7 @@ impl SynthReport {
             wrap: r.wrap,
             regions: r.regions,
             seam_smoothing: r.seam_smoothing,
+            detail: r.detail,
             adherence: sk.lines.map(|kind, g| adherence(&canvas.heights, g, kind, set.patch as f32 / 4.0, 4, 8, &bounds)),
             seams: seam_score(&canvas.heights, &canvas.provenance.data),
             shards: ShardReport::of_shards(r.shards, r.times_before),

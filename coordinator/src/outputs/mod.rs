@@ -236,20 +236,32 @@ pub fn evaluate(
     sources: &[std::sync::Arc<dyn ridgeline_terrain::ExemplarSource>],
     cache_dir: Option<&Path>,
 ) -> Result<crate::evaluation::Evaluation> {
-    let provenance = crate::evaluation::provenance_of(&out.canvas, &report.exemplars);
-    let cell_m = report.cell_size_m.unwrap_or(90.0);
+    // an output finer than its exemplars is judged where they have something to say:
+    // averaged over the cells of the level at their cell size, against that level's
+    // sketch and provenance (`stages::detail_level`)
+    let averaged;
+    let (terrain, canvas, sketch, patch, cell) = match &out.detail_level {
+        Some(c) => {
+            averaged = crate::stages::detail_level::averaged(out.terrain(), c.factor);
+            let cell = report.cell_size_m.map(|m| m * c.factor as f32);
+            (&averaged, &c.canvas, &c.sketch, c.patch, cell)
+        }
+        None => (out.terrain(), &out.canvas, &out.sketch, report.patch, report.cell_size_m),
+    };
+    let provenance = crate::evaluation::provenance_of(canvas, &report.exemplars);
+    let cell_m = cell.unwrap_or(90.0);
     let sources = crate::evaluation::source_figures::of_sources(
         sources,
-        report.cell_size_m,
+        cell,
         cell_m,
         &|n| crate::evaluation::supplied(Some(&provenance), n),
         cache_dir,
     )?;
     Ok(crate::evaluation::evaluate(&crate::evaluation::Inputs {
-        terrain: out.terrain(),
+        terrain,
         cell_m,
-        sketch: Some(&out.sketch),
-        patch: report.patch,
+        sketch: Some(sketch),
+        patch,
         sources: &sources,
         provenance: Some(&provenance),
     }))

@@ -204,10 +204,13 @@ impl BaseSurface {
     /// [`detail_on`] takes out of each patch, so the two bands add up to one terrain.
     /// (With the band at the coarse cell itself, σ = 0.65 f, the coarse patches'
     /// short wavelengths doubled the output's power at 8 to 32 cells: half the
-    /// sources' roughness on a 4096² job.)
-    pub fn coarse_terrain(f: usize, cw: usize, ch: usize, values: Vec<f32>) -> BaseSurface {
-        let sigma = DETAIL_BAND * f as f32;
-        let pre = (DETAIL_BAND * DETAIL_BAND - 5.0 / 12.0).max(0.0).sqrt();
+    /// sources' roughness on a 4096² job.) `band` is that σ in coarse cells:
+    /// [`DETAIL_BAND`] where both levels come from the same exemplars, the coarse
+    /// cell itself where the output level adds only what the coarse one cannot hold
+    /// (`stages::detail_level`).
+    pub fn coarse_terrain(f: usize, cw: usize, ch: usize, values: Vec<f32>, band: f32) -> BaseSurface {
+        let sigma = band * f as f32;
+        let pre = (band * band - 5.0 / 12.0).max(0.0).sqrt();
         let values = gaussian_blur(&values, cw, ch, pre);
         BaseSurface { detail_sigma: Some(sigma), ..BaseSurface::from_grid(f, cw, ch, values) }
     }
@@ -352,7 +355,7 @@ fn less_quadric(pixels: &[f32], p: usize) -> Vec<f32> {
 
 /// A `w` x `h` grid under a separable Gaussian of `sigma` cells, each value the
 /// weighted mean of the taps inside the grid (in f64, taps in a fixed order).
-fn gaussian_blur(src: &[f32], w: usize, h: usize, sigma: f32) -> Vec<f32> {
+pub(crate) fn gaussian_blur(src: &[f32], w: usize, h: usize, sigma: f32) -> Vec<f32> {
     if sigma <= 0.0 {
         return src.to_vec();
     }
@@ -447,7 +450,7 @@ mod tests {
         let long = |x: usize| 300.0 * (x as f32 * std::f32::consts::TAU / 200.0).cos();
         let short = |x: usize| 10.0 * (x as f32 * std::f32::consts::TAU / 6.0).sin();
         let pixels: Vec<f32> = (0..p * p).map(|k| 5.0 * (k / p) as f32 + long(k % p) + short(k % p)).collect();
-        let surface = BaseSurface::coarse_terrain(4, 32, 32, vec![1000.0; 32 * 32]);
+        let surface = BaseSurface::coarse_terrain(4, 32, 32, vec![1000.0; 32 * 32], DETAIL_BAND);
         let out = surface.lay(&pixels, &vec![1000.0; p * p]);
         // the short wave on the base, the bump and the tilt gone: what is left besides
         // the short wave varies by a small part of the bump's 300 m (one-sided taps

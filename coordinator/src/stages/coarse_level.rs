@@ -85,14 +85,26 @@ impl CoarseJob {
     }
 
     /// After the coarse canvas is filled and fitted: its depressions breached, and the
-    /// output level's form — the coarse terrain as the surface patches are merged on,
-    /// with the coarse plan's range and statistics.
-    pub fn finish(mut self, patch: usize) -> LargeScale {
+    /// output level's form — the coarse terrain as the surface patches are merged on
+    /// with the band between the levels at `band` coarse cells
+    /// (`BaseSurface::coarse_terrain`), with the coarse plan's range and statistics —
+    /// and the coarse level itself (its canvas and sketch).
+    pub fn finish(mut self, patch: usize, band: f32) -> (LargeScale, CoarseLevel) {
         breach_depressions(&mut self.canvas.heights, &ridge_crests(&self.sketch), patch);
-        let h = self.canvas.heights;
-        let target = BaseSurface::coarse_terrain(self.factor, h.width, h.height, h.data);
-        LargeScale { target, ..self.form }
+        let h = &self.canvas.heights;
+        let target = BaseSurface::coarse_terrain(self.factor, h.width, h.height, h.data.clone(), band);
+        let level = CoarseLevel { factor: self.factor, patch, canvas: self.canvas, sketch: self.sketch };
+        (LargeScale { target, ..self.form }, level)
     }
+}
+
+/// A finished coarse level: its terrain and provenance (the canvas), the sketch at
+/// its size, its factor and patch.
+pub struct CoarseLevel {
+    pub factor: usize,
+    pub patch: usize,
+    pub canvas: Canvas,
+    pub sketch: SketchFeatures,
 }
 
 #[cfg(test)]

@@ -1,6 +1,8 @@
 //! The pipeline's stages, in the order a job runs them (see [`crate::job::pipeline`]):
 //! the [`exemplars`] loaded into shards, [`sketch`] analysis, the [`large_scale`]
-//! target (and on large outputs the whole synthesis first at a [`coarse_level`]),
+//! target (and on large outputs the whole synthesis first at a [`coarse_level`]; on
+//! outputs finer than the exemplars, at their cell size, the [`detail_level`] adding
+//! what is finer),
 //! [`user_patches`], [`feature_placement`] (rounds 1 and 2, with [`selection`]),
 //! [`hole_filling`] (with its [`base_surface`] and [`ragged_edge`]), [`sketch_fit`]
 //! and the [`drainage`] conditioning; a job on an existing terrain ends with
@@ -10,6 +12,7 @@
 
 pub mod base_surface;
 pub mod coarse_level;
+pub mod detail_level;
 pub mod drainage;
 pub mod editing;
 pub mod erosion;
