@@ -1,5 +1,5 @@
 //! The cluster with real worker processes on 127.0.0.1: identical bytes in-process and
-//! on 1 and 3 workers, a worker killed (SIGKILL) mid-job, all workers lost, a wrong
+//! on 1 and 3 workers (and for a job finer than its exemplars, on 2), a worker killed (SIGKILL) mid-job, all workers lost, a wrong
 //! token, malformed requests, sockets held half-open, an unusable data dir.
 
 use ridgeline::cluster::{Cluster, ClusterConfig};
@@ -74,6 +74,30 @@ fn same_bytes_in_process_on_one_and_three_workers_and_after_a_kill() {
     assert_eq!(killer.join().unwrap(), 2, "the kill happened after two answered blocks");
     assert_eq!(c3.live().len(), 2, "the killed worker was noticed and its shard moved");
     assert!(out == local, "output changed after a worker was killed mid-job");
+}
+
+#[test]
+fn a_job_finer_than_its_exemplars_is_the_same_on_two_workers_as_in_process() {
+    // 10 m from 90 m DEMs: the coarse level at 90 m on the workers, and the detail
+    // generator made for the job sent to them as a recipe
+    let Some(data) = shared_data() else { return };
+    let d = temp_dir("cluster-detail");
+    let run = |cluster: Option<Arc<Cluster>>| {
+        let o = session(&data.join("sketches/small-range-512.png"), &data.join("dems"), &d.join("cache"))
+            .cell_size(10.0)
+            .backend(cluster.map(Backend::Cluster).unwrap_or_default())
+            .build()
+            .and_then(|s| s.run())
+            .unwrap();
+        let detail = o.report.detail.clone().expect("a detail level");
+        (encode_tiff_f32(o.terrain()).unwrap(), detail)
+    };
+    let (local, detail) = run(None);
+    assert_eq!((detail.factor, detail.fine_sources.len()), (9, 1));
+    assert!(detail.generator.is_some(), "no DEM is fine enough: a generator made for the job");
+    let ws: Vec<WorkerProc> = (0..2).map(|i| WorkerProc::start(&d.join(format!("w{i}")), Some(TOKEN))).collect();
+    let (fleet, _) = run(Some(cluster(&ws.iter().collect::<Vec<_>>(), TOKEN)));
+    assert!(fleet == local, "2 workers differ from in-process");
 }
 
 #[test]

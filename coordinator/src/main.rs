@@ -204,9 +204,13 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
     use ridgeline::session::{Exemplars, Session, SketchSource};
     let backend = backend(worker_urls(&a)?, a.gpu, &a.token, &a.tls_ca, a.call_timeout_s, JOB_ID.get().cloned());
     let edit = edit_of(&a)?;
+    // a vector sketch may draw its regions as polygons
+    let mut drawn_regions = None;
     let sketch = match (&a.sketch, &edit) {
         (Some(p), _) if p.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")) => {
-            SketchSource::Strokes(read_stroke_sketch(p, a.max_side)?)
+            let (sketch, regions) = read_vector_sketch(p, a.max_side)?;
+            drawn_regions = regions.map(|r| r.map(&p.display().to_string(), sketch.width, sketch.height));
+            SketchSource::Strokes(sketch)
         }
         (Some(p), _) => SketchSource::File(p.clone()),
         // an edit without a sketch: no strokes, hole filling alone
@@ -285,7 +289,12 @@ fn synth(a: SynthArgs, interactive: bool, human: bool) -> Result<()> {
     if let Some(e) = edit {
         builder = builder.edit(e);
     }
-    if let Some(path) = &a.regions {
+    if let (Some(_), Some(path)) = (&drawn_regions, &a.regions) {
+        bail!("{}: the sketch draws regions and --regions gives a map: give one of them", path.display());
+    }
+    if let Some(map) = drawn_regions {
+        builder = builder.regions(map);
+    } else if let Some(path) = &a.regions {
         let map = ridgeline::stages::regions::RegionMap::read(path, a.max_side).map_err(|m| anyhow::anyhow!("{m}"))?;
         builder = builder.input_file("the regions file", path);
         if let Some(f) = &map.map_file {
@@ -398,11 +407,27 @@ fn sketch_grid(p: &Path, max_side: u32) -> Result<ridgeline_terrain::grid::Grid<
 /// and optional per-point widths and elevations), read with a size limit and checked,
 /// every problem naming the file.
 fn read_stroke_sketch(path: &Path, max_side: u32) -> Result<ridgeline::session::StrokeSketch> {
+    Ok(read_vector_sketch(path, max_side)?.0)
+}
+
+/// A vector sketch file with the regions it draws (its `regions` key: a blend width
+/// and regions with polygons, `stages::regions::SketchRegions`), if any.
+fn read_vector_sketch(
+    path: &Path,
+    max_side: u32,
+) -> Result<(ridgeline::session::StrokeSketch, Option<ridgeline::stages::regions::SketchRegions>)> {
     let text = ridgeline_terrain::io::read_text_input(path)?;
     let sketch: ridgeline::session::StrokeSketch = serde_json::from_str(&text)
         .with_context(|| format!("{}: not a vector sketch (width, height, strokes)", path.display()))?;
     sketch.validate(max_side).map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))?;
-    Ok(sketch)
+    #[derive(serde::Deserialize)]
+    struct Drawn {
+        #[serde(default)]
+        regions: Option<ridgeline::stages::regions::SketchRegions>,
+    }
+    let drawn: Drawn =
+        serde_json::from_str(&text).with_context(|| format!("{}: its regions (blend, regions with polygons)", path.display()))?;
+    Ok((sketch, drawn.regions))
 }
 
 fn fetch(a: FetchArgs) -> Result<()> {

@@ -1085,4 +1085,66 @@ fn regions_take_their_own_exemplars_and_meet_without_a_step() {
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && e.contains("regions.toml") && e.contains("100 x 100"), "{e}");
     assert!(!d.join("bad.tif").exists());
+
+    // the same regions drawn as polygons in a vector sketch: the range an ellipse of
+    // 32 corners, the rolling region the rest (no polygon); drawn on a canvas half the
+    // terrain's size, scaled with the strokes
+    let ellipse: Vec<[f32; 2]> = (0..32)
+        .map(|k| {
+            let a = k as f32 * std::f32::consts::TAU / 32.0;
+            [(60.0 + 50.0 * a.cos()) / 2.0, (80.0 + 65.0 * a.sin()) / 2.0]
+        })
+        .collect();
+    let vector = |polygon: &[[f32; 2]]| {
+        serde_json::json!({
+            "width": 96, "height": 80,
+            "strokes": [
+                {"pen": "ridge", "width": 2.5, "points": [[10, 27.5], [85, 46]]},
+                {"pen": "valley", "width": 2.5, "points": [[10, 58], [85, 43]]}
+            ],
+            "regions": {"blend": 16, "regions": [
+                {"name": "rolling", "exemplars": ["downs", "moor"]},
+                {"name": "range", "exemplars": ["crests"], "polygons": [polygon]}
+            ]}
+        })
+        .to_string()
+    };
+    std::fs::write(d.join("drawn.json"), vector(&ellipse)).unwrap();
+    let drawn = |extra: &[&str], out: &str| {
+        bin()
+            .args(["synth", "--patch-size", "32", "--seed", "4", "--size", "192x160", "--sketch"])
+            .arg(d.join("drawn.json"))
+            .arg("--exemplars")
+            .arg(&m)
+            .arg("--cache-dir")
+            .arg(d.join("cache"))
+            .arg("--out")
+            .arg(d.join(out))
+            .arg("--report")
+            .arg(d.join(format!("{out}.json")))
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let o = drawn(&[], "drawn.tif");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("drawn.tif.json")).unwrap()).unwrap();
+    let r = &report["regions"];
+    let by_name = |n: &str| r["regions"].as_array().unwrap().iter().find(|g| g["name"] == n).unwrap().clone();
+    assert_eq!(by_name("range")["exemplars_used"], serde_json::json!(["crests"]), "{r}");
+    // the ellipse's area: pi * 50 * 65 cells
+    let cells = by_name("range")["cells"].as_f64().unwrap();
+    assert!((cells / (std::f64::consts::PI * 50.0 * 65.0) - 1.0).abs() < 0.03, "the range holds {cells} cells");
+    let (across, inside) = (r["boundary_step_p95_m"].as_f64().unwrap(), r["inside_step_p95_m"].as_f64().unwrap());
+    assert!(across > 0.0 && across < 1.5 * inside, "steps across the drawn boundary {across:.1} m, inside {inside:.1} m");
+    // drawn regions and a regions file together, or a polygon of two corners, are
+    // refused naming the files, and nothing is written
+    let o = drawn(&["--regions", d.join("regions.toml").to_str().unwrap()], "bad.tif");
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && e.contains("regions.toml") && e.contains("draws regions"), "{e}");
+    std::fs::write(d.join("drawn.json"), vector(&ellipse[..2])).unwrap();
+    let o = drawn(&[], "bad.tif");
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && e.contains("drawn.json") && e.contains("polygon 1 has 2 corners"), "{e}");
+    assert!(!d.join("bad.tif").exists());
 }

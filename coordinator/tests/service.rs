@@ -605,6 +605,25 @@ fn the_api_edits_an_earlier_job_s_terrain_and_makes_regions_of_their_own_exempla
     let used: Vec<serde_json::Value> =
         report["regions"]["regions"].as_array().unwrap().iter().map(|r| r["exemplars_used"].clone()).collect();
     assert!(used.contains(&serde_json::json!(["peaks"])) && used.contains(&serde_json::json!(["downs"])), "{report}");
+    // the same regions drawn as polygons on the sketch's canvas: no map
+    let drawn = serde_json::json!({
+        "blend": 8,
+        "regions": [
+            { "name": "rolling", "exemplars": ["downs"] },
+            { "name": "range", "exemplars": ["peaks"], "polygons": [[[0, 0], [64, 0], [64, 128], [0, 128]]] }
+        ]
+    });
+    let id = run(serde_json::json!({ "sketch": sketch, "seed": 2, "patch_size": 32, "regions": drawn }));
+    let mut rb = Vec::new();
+    ureq::get(&format!("{}/api/jobs/{id}/files/report.json", s.url)).call().unwrap().into_reader().read_to_end(&mut rb).unwrap();
+    let report: serde_json::Value = serde_json::from_slice(&rb).unwrap();
+    let range = report["regions"]["regions"].as_array().unwrap().iter().find(|r| r["name"] == "range").unwrap().clone();
+    assert_eq!((range["cells"].as_u64(), range["exemplars_used"].clone()), (Some(64 * 128), serde_json::json!(["peaks"])));
+    let mut bad = drawn.clone();
+    bad["regions"][1]["polygons"] = serde_json::json!([[[0, 0], [64, 0]]]);
+    let (code, e) =
+        post(&format!("{}/api/jobs", s.url), &serde_json::json!({ "sketch": sketch, "patch_size": 32, "regions": bad }), None);
+    assert!(code == 400 && e["error"].as_str().unwrap().contains("polygon 1 has 2 corners"), "{e}");
     // a region naming an exemplar the library has not is refused, naming it
     let mut bad = regions.clone();
     bad["regions"][1]["exemplars"] = serde_json::json!(["gobi"]);

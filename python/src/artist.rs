@@ -157,7 +157,7 @@ pub fn regions(v: &Bound<'_, PyAny>) -> PyResult<RegionMap> {
             }
             _ => None,
         };
-        specs.push(RegionSpec { name, colour: None, exemplars, relief });
+        specs.push(RegionSpec { name, colour: None, exemplars, relief, polygons: None });
     }
     let blend: Option<usize> = match d.get_item("blend")? {
         Some(v) if !v.is_none() => {

@@ -64,7 +64,7 @@ use super::stage_runner::StageRunner;
 use super::SynthError;
 use crate::canvas::Canvas;
 use crate::progress::Stage;
-use crate::stages::base_surface::DETAIL_BAND;
+use crate::stages::base_surface::{CoarseBand, DETAIL_BAND};
 use crate::stages::coarse_level::{self, CoarseJob, CoarseLevel};
 use crate::stages::detail_level::{self, DetailPlan, DetailStats};
 use crate::stages::drainage::{breach_depressions, breach_depressions_on_torus, ridge_crests};
@@ -173,7 +173,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
     // the surface the output level's patches are merged on
     let coarse_run = match (&detail, coarse) {
         (Some(d), _) => Some((OUTPUT_LEVEL, d.factor, d.coarse_patch, detail_level::BAND)),
-        (None, Some(f)) => Some((COARSE_LEVEL, f, p, DETAIL_BAND)),
+        (None, Some(f)) => Some((COARSE_LEVEL, f, p, CoarseBand::Blurred(DETAIL_BAND))),
         (None, None) => None,
     };
     let (form, coarse_done, fine) = match (form, coarse_run) {

@@ -190,7 +190,8 @@ pub async fn submit(State(st): State<Arc<AppState>>, body: Bytes) -> Result<Resp
     let result = tokio::task::spawn_blocking(move || {
         let invalid = |e: ApiError| SubmitError::Invalid(e.1);
         let (req, sketch) = parse_request(&body, cfg.max_side, &state.decoding).map_err(invalid)?;
-        let regions = req.regions.as_ref().map(|r| region_map(r, cfg.max_side, &state.decoding)).transpose().map_err(invalid)?;
+        let regions =
+            req.regions.as_ref().map(|r| region_map(r, &sketch, cfg.max_side, &state.decoding)).transpose().map_err(invalid)?;
         let edit = req
             .edit
             .as_ref()

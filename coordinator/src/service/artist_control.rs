@@ -10,15 +10,18 @@ use super::jobs::{JobQueue, JobState};
 use super::uploads::{bad, sketch_of, uploaded_image, ApiError, SketchRequest};
 use crate::session::SketchSource;
 use crate::stages::editing::{mask_of_image, Edit};
-use crate::stages::regions::{RegionMap, RegionPixels, RegionSpec};
+use crate::stages::regions::{RegionMap, RegionPixels, RegionSpec, SketchRegions};
 use ridgeline_terrain::grid::Grid;
 
 /// Regions as a request gives them.
 #[derive(Debug, Clone, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RegionsRequest {
-    /// The map: a PNG of the terrain's size, one colour per region (base64).
-    pub map_png_base64: String,
+    /// The map: a PNG of the terrain's size, one colour per region (base64); none:
+    /// the regions are drawn as polygons on the sketch's canvas (each region's
+    /// `polygons`, one region without any for the rest).
+    #[serde(default)]
+    pub map_png_base64: Option<String>,
     pub regions: Vec<RegionSpec>,
     /// Cells across each boundary (default half a patch).
     #[serde(default)]
@@ -47,10 +50,25 @@ pub struct EditRequest {
     pub blend: Option<usize>,
 }
 
-/// The region map a request gives.
-pub fn region_map(req: &RegionsRequest, max_side: u32, decoding: &std::sync::Mutex<()>) -> Result<RegionMap, ApiError> {
+/// The region map a request gives: a painted map, or polygons on the canvas of its
+/// `sketch`.
+pub fn region_map(
+    req: &RegionsRequest,
+    sketch: &SketchSource,
+    max_side: u32,
+    decoding: &std::sync::Mutex<()>,
+) -> Result<RegionMap, ApiError> {
+    let Some(png) = &req.map_png_base64 else {
+        let (width, height) = match sketch {
+            SketchSource::Strokes(s) => (s.width, s.height),
+            SketchSource::Image(g) => (g.width, g.height),
+            SketchSource::File(_) => return Err(bad("regions: give map_png_base64 (a sketch file has no canvas here)")),
+        };
+        let drawn = SketchRegions { blend: req.blend, regions: req.regions.clone() };
+        return Ok(RegionMap { what: "the regions".into(), ..drawn.map("the sketch", width, height) });
+    };
     let name = "the region map";
-    let bytes = uploaded_image(&req.map_png_base64, name, max_side)?;
+    let bytes = uploaded_image(png, name, max_side)?;
     let _one_at_a_time = decoding.lock().unwrap_or_else(|e| e.into_inner());
     let image = ridgeline_terrain::io::decode_image(std::path::Path::new(name), &bytes, max_side)
         .map_err(|e| bad(e.to_string()))?

@@ -148,6 +148,60 @@ fn bilinear(g: &[f32], w: usize, h: usize, u: f32, v: f32) -> f32 {
     top * (1.0 - fy) + bottom * fy
 }
 
+/// How a coarser level's terrain is laid under the output level
+/// ([`BaseSurface::coarse_terrain`]), with the σ of the band between them in coarse
+/// cells.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CoarseBand {
+    /// The coarse terrain under a Gaussian of that σ (the cells' box and the
+    /// B-spline included): both levels from the same exemplars, each its own band.
+    Blurred(f32),
+    /// The coarse terrain interpolated (the B-spline through its cells' values, so
+    /// it keeps every wavelength they resolve): the output level adds only what lies
+    /// below them.
+    Interpolated(f32),
+}
+
+/// The cubic B-spline coefficients whose spline passes through `values` at the
+/// cells' centres (Unser 1999's recursive prefilter along rows, then columns, with
+/// mirrored ends; in f64, in a fixed order).
+fn bspline_coefficients(values: &[f32], w: usize, h: usize) -> Vec<f32> {
+    let pole = 3f64.sqrt() - 2.0;
+    let line = |s: &mut [f64]| {
+        let n = s.len();
+        if n < 2 {
+            return;
+        }
+        // causal start: the mirrored sum, truncated where the pole's powers vanish
+        let horizon = n.min(30);
+        let (mut sum, mut zk) = (s[0], pole);
+        for v in s.iter().take(horizon).skip(1) {
+            sum += zk * v;
+            zk *= pole;
+        }
+        s[0] = sum;
+        for k in 1..n {
+            s[k] += pole * s[k - 1];
+        }
+        s[n - 1] = pole / (pole * pole - 1.0) * (s[n - 1] + pole * s[n - 2]);
+        for k in (0..n - 1).rev() {
+            s[k] = pole * (s[k + 1] - s[k]);
+        }
+        s.iter_mut().for_each(|v| *v *= 6.0);
+    };
+    let mut g: Vec<f64> = values.iter().map(|&v| v as f64).collect();
+    for row in g.chunks_mut(w) {
+        line(row);
+    }
+    let mut col = vec![0f64; h];
+    for x in 0..w {
+        (0..h).for_each(|y| col[y] = g[y * w + x]);
+        line(&mut col);
+        (0..h).for_each(|y| g[y * w + x] = col[y]);
+    }
+    g.into_iter().map(|v| v as f32).collect()
+}
+
 /// Weights of the uniform cubic B-spline's four control points at fraction `t`.
 fn bspline_weights(t: f32) -> [f32; 4] {
     let (t2, t3) = (t * t, t * t * t);
@@ -208,11 +262,15 @@ impl BaseSurface {
     /// [`DETAIL_BAND`] where both levels come from the same exemplars, the coarse
     /// cell itself where the output level adds only what the coarse one cannot hold
     /// (`stages::detail_level`).
-    pub fn coarse_terrain(f: usize, cw: usize, ch: usize, values: Vec<f32>, band: f32) -> BaseSurface {
-        let sigma = band * f as f32;
-        let pre = (band * band - 5.0 / 12.0).max(0.0).sqrt();
-        let values = gaussian_blur(&values, cw, ch, pre);
-        BaseSurface { detail_sigma: Some(sigma), ..BaseSurface::from_grid(f, cw, ch, values) }
+    pub fn coarse_terrain(f: usize, cw: usize, ch: usize, values: Vec<f32>, band: CoarseBand) -> BaseSurface {
+        let (values, sigma) = match band {
+            CoarseBand::Blurred(band) => {
+                let pre = (band * band - 5.0 / 12.0).max(0.0).sqrt();
+                (gaussian_blur(&values, cw, ch, pre), band)
+            }
+            CoarseBand::Interpolated(band) => (bspline_coefficients(&values, cw, ch), band),
+        };
+        BaseSurface { detail_sigma: Some(sigma * f as f32), ..BaseSurface::from_grid(f, cw, ch, values) }
     }
 
     /// Candidate `pixels` as merged on this surface, whose values over the patch are
@@ -450,7 +508,7 @@ mod tests {
         let long = |x: usize| 300.0 * (x as f32 * std::f32::consts::TAU / 200.0).cos();
         let short = |x: usize| 10.0 * (x as f32 * std::f32::consts::TAU / 6.0).sin();
         let pixels: Vec<f32> = (0..p * p).map(|k| 5.0 * (k / p) as f32 + long(k % p) + short(k % p)).collect();
-        let surface = BaseSurface::coarse_terrain(4, 32, 32, vec![1000.0; 32 * 32], DETAIL_BAND);
+        let surface = BaseSurface::coarse_terrain(4, 32, 32, vec![1000.0; 32 * 32], CoarseBand::Blurred(DETAIL_BAND));
         let out = surface.lay(&pixels, &vec![1000.0; p * p]);
         // the short wave on the base, the bump and the tilt gone: what is left besides
         // the short wave varies by a small part of the bump's 300 m (one-sided taps

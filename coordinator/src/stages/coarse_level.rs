@@ -28,7 +28,7 @@
 //! the same seed.
 
 use crate::canvas::Canvas;
-use crate::stages::base_surface::BaseSurface;
+use crate::stages::base_surface::{BaseSurface, CoarseBand};
 use crate::stages::drainage::{breach_depressions, ridge_crests};
 use crate::stages::large_scale::{self, LargeScale, LibraryForm};
 use crate::stages::sketch::{self, SketchFeatures, SketchInput, StrokeSketch};
@@ -86,10 +86,10 @@ impl CoarseJob {
 
     /// After the coarse canvas is filled and fitted: its depressions breached, and the
     /// output level's form — the coarse terrain as the surface patches are merged on
-    /// with the band between the levels at `band` coarse cells
+    /// with the band between the levels as `band` says
     /// (`BaseSurface::coarse_terrain`), with the coarse plan's range and statistics —
     /// and the coarse level itself (its canvas and sketch).
-    pub fn finish(mut self, patch: usize, band: f32) -> (LargeScale, CoarseLevel) {
+    pub fn finish(mut self, patch: usize, band: CoarseBand) -> (LargeScale, CoarseLevel) {
         breach_depressions(&mut self.canvas.heights, &ridge_crests(&self.sketch), patch);
         let h = &self.canvas.heights;
         let target = BaseSurface::coarse_terrain(self.factor, h.width, h.height, h.data.clone(), band);

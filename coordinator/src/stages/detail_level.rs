@@ -16,10 +16,11 @@
 //!    [`FINE_SLACK`] times the output's — make the output level.
 //! 2. The coarse level runs the whole synthesis (target, placement, filling, sketch
 //!    fit, breaching) as `coarse_level` does for large outputs; its terrain is the
-//!    surface the output level is laid on, with the band between them at
-//!    [`BAND`] coarse cells (the smallest the coarse cells' box and the B-spline
-//!    allow), so the DEMs keep every wavelength they resolve and the output level
-//!    adds only what is finer.
+//!    surface the output level is laid on, interpolated through its cells' values
+//!    ([`BAND`]; not blurred as between two levels of the same exemplars), so the
+//!    DEMs keep every wavelength they resolve and the output level adds only what is
+//!    finer: each patch's detail below a Gaussian whose half power lies at the
+//!    coarse grid's Nyquist wavelength.
 //! 3. Where the library has no fine source, a generator made for the job continues
 //!    the coarse terrain's own spectrum ([`detail_generator`]): fBm whose octaves
 //!    span the coarse cell down to two output cells, with the gain `2^-H` of the
@@ -44,7 +45,7 @@
 
 use crate::canvas::Canvas;
 use crate::job::settings::{JobSettings, MIN_PATCH};
-use crate::stages::base_surface::gaussian_blur;
+use crate::stages::base_surface::{gaussian_blur, CoarseBand};
 use crate::stages::exemplars::common_cell_size;
 use ridgeline_terrain::exemplar_source::ExemplarSource;
 use ridgeline_terrain::generators::{Noise, NoiseKind};
@@ -60,10 +61,12 @@ pub const MIN_RATIO: f32 = 1.5;
 /// level (it is resampled by little).
 pub const FINE_SLACK: f32 = 1.5;
 
-/// The band between the coarse terrain and the output level's detail, in coarse
-/// cells: the smallest the coarse cells' box (variance f²/12) and the cubic B-spline
-/// (f²/3) allow, √(5/12).
-pub const BAND: f32 = 0.645;
+/// The band between the coarse terrain and the output level's detail: the coarse
+/// terrain interpolated (its cells' values kept, every wavelength they resolve), and
+/// the patches' detail below a Gaussian of σ = 0.375 coarse cells, whose half power
+/// lies at two coarse cells (the coarse grid's Nyquist wavelength).
+pub const BAND: CoarseBand = CoarseBand::Interpolated(BAND_SIGMA);
+const BAND_SIGMA: f32 = 0.375;
 
 /// Hurst exponents measured outside this range are taken at its ends (a coarse
 /// terrain smoother than a plane's interpolation, or rougher than white noise, is no
@@ -181,7 +184,7 @@ pub fn detail_generator(coarse: &Heightfield, plan: &DetailPlan, patch: usize, s
     let step = cal.detail_step_m.max(LEAST_DETAIL_STEP_M);
     let f = plan.factor as f64;
     let side = (GENERATOR_PATCHES * patch).clamp(GENERATOR_SIDE.0, GENERATOR_SIDE.1);
-    // octaves from four coarse cells (the band's reach) down to two output cells
+    // octaves from four coarse cells (beyond the band's reach) down to two output cells
     let wavelength = 4.0 * f;
     let octaves = ((wavelength / 2.0).log2().ceil() as u32 + 1).clamp(1, 16);
     let mut noise = Noise {
@@ -194,7 +197,7 @@ pub fn detail_generator(coarse: &Heightfield, plan: &DetailPlan, patch: usize, s
     // the detail is what the output level keeps of a patch: its band below the
     // coarse cells; scale the relief so that band's median step is the one asked for
     let g = noise.generate();
-    let low = gaussian_blur(&g.data, side, side, BAND * plan.factor as f32);
+    let low = gaussian_blur(&g.data, side, side, BAND_SIGMA * plan.factor as f32);
     let band = Grid { width: side, height: side, data: g.data.iter().zip(&low).map(|(v, l)| v - l).collect() };
     if let Some(s) = median_step(&band, 1).filter(|&s| s > 0.0) {
         noise.relief_m *= (step / s) as f64;
@@ -346,7 +349,7 @@ mod tests {
         let (noise, cal) = detail_generator(&coarse, &plan, 32, 7);
         assert_eq!(noise.cell_size_m, 15.0);
         let g = noise.generate();
-        let low = gaussian_blur(&g.data, g.width, g.height, BAND * 6.0);
+        let low = gaussian_blur(&g.data, g.width, g.height, BAND_SIGMA * 6.0);
         let band = Grid { width: g.width, height: g.height, data: g.data.iter().zip(&low).map(|(v, l)| v - l).collect() };
         let got = median_step(&band, 1).unwrap();
         assert!((got / cal.detail_step_m - 1.0).abs() < 0.02, "{got} vs {}", cal.detail_step_m);

@@ -1,46 +1,10 @@
-//! The regions stage (issue 27, item 1; Zhou et al. 2007 give different areas of one
-//! terrain different styles): a region map paints each area of the terrain with a
-//! named region, and each region has its own exemplar subset (and, optionally, its own
-//! relief), so a Karakoram range can rise out of a Gobi plain in one job.
-//!
-//! The job is made in passes, one per region, largest first:
-//!
-//! 1. the largest region's pass is the whole job as without regions (feature
-//!    placement, hole filling, the sketch fit), from its subset alone, on the large-scale
-//!    target of the whole library;
-//! 2. every other region is then made anew as an edit (`stages::editing`) of the terrain
-//!    so far: the cells within half the blend width of the region (its pass mask) are
-//!    synthesised from the region's subset on a canvas seeded with the rest, so its
-//!    patches and fills match and merge against the neighbouring regions; the strokes
-//!    whose patch centre lies in the mask are placed again; where the region has a
-//!    `relief`, its heights about the large-scale target (or about their mean) are
-//!    scaled by it; then it is joined like an edit (a membrane carries the boundary
-//!    offset in, and a blend band of the blend width fades it into its neighbours,
-//!    centred on the boundary);
-//! 3. conditioning (breaching, the range held) then runs over the whole terrain, as
-//!    without regions.
-//!
-//! The boundary is judged like a seam: [`boundary_steps`] compares the steps between
-//! neighbours across region boundaries with those inside the regions.
-//!
-//! Our own code: the passes are the editing stage's join applied per region; no crate
-//! does region-wise exemplar synthesis.
+//! The region map as given (issue 27, item 1): a painted PNG's colours, labels from
+//! an embedding tool, or polygons drawn in a vector sketch, with each region's name,
+//! exemplars and relief; [`RegionMap::resolve`] turns it into each cell's region and
+//! each region's source ids, naming the map in every refusal.
 
-use super::editing::{self, Edit, EditStats};
-use super::feature_placement::{place_features, PlacementSettings};
-use super::hole_filling::{fill_holes, FillSettings};
-use super::sketch::SketchFeatures;
-use super::sketch_fit::fit_to_sketch;
-use super::user_patches::{within, UserPatch};
-use crate::canvas::Canvas;
-use crate::evaluation::quality::{seam_score, SeamScore};
-use crate::job::SynthError;
-use crate::stages::base_surface::BaseSurface;
-use ridgeline_terrain::grid::{distance_transform_by, Grid, Heightfield};
-use ridgeline_terrain::height_stats::percentile;
-use ridgeline_terrain::shard::{ShardScorer, OUTPUT_LEVEL};
+use ridgeline_terrain::grid::{distance_transform_by, Grid};
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 
 /// The most regions one map may have (labels are bytes).
 pub const MAX_REGIONS: usize = 64;
@@ -63,6 +27,11 @@ pub struct RegionSpec {
     /// come).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub relief: Option<f32>,
+    /// Its area as polygons (`[[x, y], ...]` each, in the vector sketch's cells), for
+    /// regions drawn in a vector sketch ([`RegionPixels::Drawn`]); a region without
+    /// any there is the rest of the terrain.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub polygons: Option<Vec<Vec<[f32; 2]>>>,
 }
 
 /// A region map with its regions, as given: the map's pixels not yet matched to the
@@ -80,18 +49,51 @@ pub struct RegionMap {
     pub blend: Option<usize>,
 }
 
-/// A region map's pixels: colours (a painted PNG), or each cell's region's index.
+/// A region map's pixels: colours (a painted PNG), each cell's region's index, or
+/// the regions' polygons drawn on a vector sketch's canvas of this size (scaled to
+/// the terrain like its strokes; [`polygon_labels`]).
 #[derive(Debug, Clone)]
 pub enum RegionPixels {
     Colours(image::RgbImage),
     Labels(Grid<u8>),
+    Drawn { width: usize, height: usize },
 }
 
 impl RegionPixels {
-    fn size(&self) -> (usize, usize) {
+    /// The map's size; `None` for polygons, which fit any terrain.
+    fn size(&self) -> Option<(usize, usize)> {
         match self {
-            RegionPixels::Colours(i) => (i.width() as usize, i.height() as usize),
-            RegionPixels::Labels(g) => (g.width, g.height),
+            RegionPixels::Colours(i) => Some((i.width() as usize, i.height() as usize)),
+            RegionPixels::Labels(g) => Some((g.width, g.height)),
+            RegionPixels::Drawn { .. } => None,
+        }
+    }
+}
+
+/// The regions of a vector sketch (its `regions` key): the blend width and the
+/// regions, each with its polygons (one without any: the rest of the terrain).
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SketchRegions {
+    #[serde(default)]
+    pub blend: Option<usize>,
+    pub regions: Vec<RegionSpec>,
+}
+
+/// Most polygon corners a map may have, all regions together (each row of the
+/// terrain meets every edge once: the work is rows x corners).
+pub const MAX_CORNERS: usize = 10_000;
+
+impl SketchRegions {
+    /// The region map of a vector sketch of `width x height` cells (named `what` in
+    /// messages).
+    pub fn map(self, what: &str, width: usize, height: usize) -> RegionMap {
+        RegionMap {
+            what: format!("{what} (its regions)"),
+            map_file: None,
+            map: RegionPixels::Drawn { width, height },
+            regions: self.regions,
+            blend: self.blend,
         }
     }
 }
@@ -122,37 +124,6 @@ pub struct Regions {
     pub blend: usize,
 }
 
-/// What one region's pass did.
-#[derive(Debug, Clone, Default, serde::Serialize)]
-pub struct RegionStats {
-    pub name: String,
-    /// Cells of the map in the region, and cells its pass made.
-    pub cells: usize,
-    pub pass_cells: usize,
-    /// The exemplars its cells came from, by name (every one of its subset).
-    pub exemplars_used: Vec<String>,
-    pub user_patches: usize,
-    pub placed: usize,
-    pub fills: usize,
-    /// The join into the regions made before it (none for the first pass).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub join: Option<EditStats>,
-}
-
-/// What the regions stage did, and how its boundaries look.
-#[derive(Debug, Clone, Default, serde::Serialize)]
-pub struct RegionsReport {
-    pub blend: usize,
-    pub regions: Vec<RegionStats>,
-    /// 95th percentile of the height step between neighbours across a region boundary,
-    /// and inside the regions (metres).
-    pub boundary_step_p95_m: f32,
-    pub inside_step_p95_m: f32,
-    /// The seam score with the regions as the patches: gradient jumps across region
-    /// boundaries against those inside regions.
-    pub boundary_seams: Option<SeamScore>,
-}
-
 impl RegionMap {
     /// Reads a regions file (see the README), the map relative to the file's folder.
     pub fn read(path: &Path, max_side: u32) -> Result<RegionMap, String> {
@@ -174,8 +145,7 @@ impl RegionMap {
         if self.regions.is_empty() || self.regions.len() > MAX_REGIONS {
             return Err(format!("{what}: give 1 to {MAX_REGIONS} regions, not {}", self.regions.len()));
         }
-        let (mw, mh) = self.map.size();
-        if (mw, mh) != (w, h) {
+        if let Some((mw, mh)) = self.map.size().filter(|&s| s != (w, h)) {
             return Err(format!(
                 "{what}: the map is {mw} x {mh} cells, the terrain {w} x {h}: paint the map at the sketch's size"
             ));
@@ -188,6 +158,7 @@ impl RegionMap {
                 return Err(format!("{what}: two regions are named '{name}'"));
             }
             if let RegionPixels::Colours(_) = self.map {
+                // (a painted map's regions are told by their colours)
                 let given = r.colour.as_deref().unwrap_or("");
                 let colour = parse_colour(given).ok_or_else(|| {
                     format!("{what}: region '{name}': '{given}' is not a colour #rrggbb (the map's colour of the region)")
@@ -222,7 +193,15 @@ impl RegionMap {
                 }
                 g.clone()
             }
+            &RegionPixels::Drawn { width, height } => {
+                polygon_labels(&self.regions, (width, height), (w, h)).map_err(|m| format!("{what}: {m}"))?
+            }
         };
+        if let (false, Some(r)) =
+            (matches!(self.map, RegionPixels::Drawn { .. }), self.regions.iter().find(|r| r.polygons.is_some()))
+        {
+            return Err(format!("{what}: region '{}' has polygons, which only a vector sketch's regions take", r.name));
+        }
         let blend = self.blend.unwrap_or(patch / 2);
         if blend > 4 * patch {
             return Err(format!("{what}: a blend of {blend} cells is wider than four patches ({})", 4 * patch));
@@ -258,6 +237,87 @@ fn parse_colour(s: &str) -> Option<[u8; 3]> {
     }
     let byte = |i: usize| u8::from_str_radix(&hex[i..i + 2], 16).ok();
     Some([byte(0)?, byte(2)?, byte(4)?])
+}
+
+/// Each cell's region from the regions' polygons, drawn on a canvas of `canvas` cells
+/// and scaled to the terrain's `size` (like the sketch's strokes): the last region
+/// whose polygon holds the cell's centre (even-odd rule), else the one region without
+/// polygons (the rest); a cell in none of them is refused, naming it.
+pub fn polygon_labels(regions: &[RegionSpec], canvas: (usize, usize), (w, h): (usize, usize)) -> Result<Grid<u8>, String> {
+    let rest: Vec<usize> = (0..regions.len()).filter(|&r| regions[r].polygons.as_ref().is_none_or(Vec::is_empty)).collect();
+    if rest.len() > 1 {
+        return Err(format!(
+            "regions '{}' and '{}' have no polygons: at most one region (the rest of the terrain) may have none",
+            regions[rest[0]].name, regions[rest[1]].name
+        ));
+    }
+    let (sx, sy) = (w as f64 / canvas.0.max(1) as f64, h as f64 / canvas.1.max(1) as f64);
+    let mut corners = 0usize;
+    let mut edges: Vec<Vec<[f64; 4]>> = vec![Vec::new(); regions.len()];
+    for (r, spec) in regions.iter().enumerate() {
+        for (k, poly) in spec.polygons.iter().flatten().enumerate() {
+            corners += poly.len();
+            if poly.len() < 3 {
+                return Err(format!("region '{}': polygon {} has {} corners: give at least 3", spec.name, k + 1, poly.len()));
+            }
+            let off = |p: &[f32; 2]| {
+                !(p[0].is_finite() && p[1].is_finite())
+                    || p[0].abs() > 2.0 * canvas.0 as f32 + 1.0
+                    || p[1].abs() > 2.0 * canvas.1 as f32 + 1.0
+            };
+            if let Some(p) = poly.iter().find(|p| off(p)) {
+                return Err(format!(
+                    "region '{}': polygon {} has the corner [{}, {}], far off the {} x {} sketch",
+                    spec.name,
+                    k + 1,
+                    p[0],
+                    p[1],
+                    canvas.0,
+                    canvas.1
+                ));
+            }
+            for (i, a) in poly.iter().enumerate() {
+                let b = poly[(i + 1) % poly.len()];
+                edges[r].push([a[0] as f64 * sx, a[1] as f64 * sy, b[0] as f64 * sx, b[1] as f64 * sy]);
+            }
+        }
+    }
+    if corners > MAX_CORNERS {
+        return Err(format!("the regions' polygons have {corners} corners, more than {MAX_CORNERS}"));
+    }
+    const NONE: u8 = u8::MAX;
+    let mut labels = Grid::new(w, h, rest.first().map_or(NONE, |&r| r as u8));
+    // row by row, each region's crossings at the cells' centre line, filled between
+    // pairs (even-odd), regions in their order so a later one is drawn over an earlier
+    let mut xs: Vec<f64> = Vec::new();
+    for y in 0..h {
+        let cy = y as f64 + 0.5;
+        for (r, edges) in edges.iter().enumerate() {
+            xs.clear();
+            for [x0, y0, x1, y1] in edges {
+                if (*y0 <= cy) != (*y1 <= cy) {
+                    xs.push(x0 + (cy - y0) / (y1 - y0) * (x1 - x0));
+                }
+            }
+            xs.sort_by(f64::total_cmp);
+            for pair in xs.chunks_exact(2) {
+                // cells whose centre x + 0.5 lies within [pair[0], pair[1])
+                let from = (pair[0] - 0.5).ceil().max(0.0) as usize;
+                let to = ((pair[1] - 0.5).ceil().max(0.0) as usize).min(w);
+                for x in from..to {
+                    labels.data[y * w + x] = r as u8;
+                }
+            }
+        }
+    }
+    if let Some(i) = labels.data.iter().position(|&l| l == NONE) {
+        return Err(format!(
+            "the cell ({}, {}) lies in no region's polygon: give one region without polygons for the rest of the terrain",
+            i % w,
+            i / w
+        ));
+    }
+    Ok(labels)
 }
 
 /// Each pixel's region: the one whose colour is within [`COLOUR_TOLERANCE`] of it, the
@@ -336,135 +396,6 @@ impl Regions {
     }
 }
 
-/// What a later pass runs with.
-pub struct RegionPass<'a> {
-    pub shards: &'a [Arc<dyn ShardScorer>],
-    pub user_patches: &'a [UserPatch],
-    pub sketch: &'a SketchFeatures,
-    /// The large-scale target, when the job has one.
-    pub base: Option<&'a BaseSurface>,
-    /// The job's matching settings and seed, and whether it fits the sketch.
-    pub k: usize,
-    pub block: usize,
-    pub max_batch: usize,
-    pub seed: u64,
-    pub fit_sketch: bool,
-    pub pool: &'a rayon::ThreadPool,
-    pub cancel: &'a crate::progress::CancelToken,
-}
-
-/// Makes region `r` anew on `canvas` (a later pass: see the module header).
-pub fn remake(canvas: &mut Canvas, regions: &Regions, r: usize, pass: &RegionPass<'_>) -> Result<RegionStats, SynthError> {
-    let p = canvas.patch;
-    let mask = regions.pass_mask(r);
-    let edit = Edit::new(canvas.heights.clone(), mask, regions.blend).map_err(SynthError::Config)?;
-    let mut c = Canvas::seeded(&edit.base, |i| !edit.mask.data[i], p);
-    c.levels_given = pass.base.is_some();
-    let ups = within(pass.user_patches, &edit.mask);
-    let seed = pass.seed ^ 0x7265_6769_6f6e ^ ((r as u64) << 40);
-    let placing = PlacementSettings {
-        level: OUTPUT_LEVEL,
-        base: pass.base,
-        k: pass.k,
-        block: pass.block,
-        seed,
-        max_batch: pass.max_batch,
-        progress: &|_, _, _| {},
-        cancel: pass.cancel,
-    };
-    let placed = place_features(&mut c, &ups, pass.shards, &placing, pass.pool)?;
-    let fill = FillSettings { level: OUTPUT_LEVEL, seed, base: pass.base };
-    let filled = fill_holes(&mut c, pass.shards, &fill, pass.pool, &|_, _| {}, pass.cancel)?;
-    pass.pool.install(|| {
-        if pass.fit_sketch {
-            fit_to_sketch(&mut c.heights, pass.sketch, p);
-        }
-        if let Some(f) = regions.regions[r].relief {
-            scale_relief(&mut c.heights, &edit.mask, pass.base, f);
-        }
-    });
-    let join = pass.pool.install(|| editing::join(&mut c.heights, &edit));
-    canvas.heights = std::mem::replace(&mut c.heights, Grid::new(0, 0, 0.0));
-    canvas.take_provenance(&c, &edit.mask.data);
-    Ok(RegionStats {
-        pass_cells: edit.mask.data.iter().filter(|&&m| m).count(),
-        user_patches: ups.len(),
-        placed: placed.placed,
-        fills: filled.fills,
-        join: Some(join),
-        ..RegionStats::named(regions, r)
-    })
-}
-
-/// The exemplars region `r`'s cells beyond the blend bands came from, as `canvas`
-/// has it now (named as `shards` name them).
-pub fn exemplars_used(canvas: &Canvas, regions: &Regions, r: usize, shards: &[Arc<dyn ShardScorer>]) -> Vec<String> {
-    let (w, h) = (regions.labels.width, regions.labels.height);
-    let labels = &regions.labels.data;
-    let beyond = distance_transform_by(w, h, |i| labels[i] as usize != r);
-    let mut used: Vec<u32> = (0..w * h)
-        .filter(|&i| labels[i] as usize == r && beyond.data[i] > (regions.blend / 2) as f32)
-        .filter_map(|i| canvas.placements.get(canvas.provenance.data[i] as usize))
-        .map(|pl| pl.source)
-        .filter(|&s| s != u32::MAX)
-        .collect();
-    used.sort_unstable();
-    used.dedup();
-    let names: Vec<(u32, String)> = shards.iter().flat_map(|s| s.sources(OUTPUT_LEVEL)).map(|s| (s.source, s.name)).collect();
-    let name = |id: u32| names.iter().find(|(s, _)| *s == id).map_or_else(|| format!("source {id}"), |(_, n)| n.clone());
-    used.into_iter().map(name).collect()
-}
-
-impl RegionStats {
-    /// Region `r`'s name and cells, nothing done yet.
-    pub fn named(regions: &Regions, r: usize) -> RegionStats {
-        RegionStats {
-            name: regions.regions[r].name.clone(),
-            cells: regions.labels.data.iter().filter(|&&l| l as usize == r).count(),
-            ..Default::default()
-        }
-    }
-}
-
-/// Scales the heights of the cells in `mask` about the large-scale target (about their
-/// mean without one) by `f`.
-fn scale_relief(h: &mut Heightfield, mask: &Grid<bool>, base: Option<&BaseSurface>, f: f32) {
-    let w = h.width;
-    let cells: Vec<usize> = (0..h.data.len()).filter(|&i| mask.data[i] && h.data[i].is_finite()).collect();
-    let mean = cells.iter().map(|&i| h.data[i] as f64).sum::<f64>() / cells.len().max(1) as f64;
-    for i in cells {
-        let reference = base.map_or(mean as f32, |b| b.at(i % w, i / w));
-        h.data[i] = reference + f * (h.data[i] - reference);
-    }
-}
-
-/// How the boundaries of `regions` look on the finished terrain `h` (the report's
-/// figures of them).
-pub fn judge_boundaries(report: &mut RegionsReport, h: &Heightfield, regions: &Regions) {
-    (report.boundary_step_p95_m, report.inside_step_p95_m) = boundary_steps(h, &regions.labels);
-    let labels: Vec<u32> = regions.labels.data.iter().map(|&l| l as u32).collect();
-    report.boundary_seams = Some(seam_score(h, &labels));
-}
-
-/// The 95th percentiles of the height step between 4-neighbours across a region
-/// boundary and inside regions (metres); 0 where there are none.
-pub fn boundary_steps(h: &Heightfield, labels: &Grid<u8>) -> (f32, f32) {
-    let (w, hh) = (h.width, h.height);
-    let (mut across, mut inside) = (Vec::new(), Vec::new());
-    for y in 0..hh {
-        for x in 0..w {
-            let i = y * w + x;
-            for j in [(x + 1 < w).then(|| i + 1), (y + 1 < hh).then(|| i + w)].into_iter().flatten() {
-                let d = (h.data[i] - h.data[j]).abs();
-                if d.is_finite() {
-                    if labels.data[i] == labels.data[j] { &mut inside } else { &mut across }.push(d);
-                }
-            }
-        }
-    }
-    (percentile(&mut across, 95).unwrap_or(0.0), percentile(&mut inside, 95).unwrap_or(0.0))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -479,6 +410,7 @@ mod tests {
             colour: Some(colour.into()),
             exemplars: exemplars.iter().map(|s| s.to_string()).collect(),
             relief: None,
+            polygons: None,
         }
     }
 
@@ -545,21 +477,36 @@ mod tests {
     }
 
     #[test]
-    fn a_region_s_relief_scales_its_heights_about_their_mean_and_nothing_else() {
-        let mut h = Grid::from_vec(4, 2, vec![100.0, 300.0, 50.0, 70.0, 200.0, 400.0, 9.0, 9.0]);
-        let mask = Grid::from_vec(4, 2, vec![true, true, false, false, true, true, false, false]);
-        scale_relief(&mut h, &mask, None, 0.5);
-        assert_eq!(h.data, vec![175.0, 275.0, 50.0, 70.0, 225.0, 325.0, 9.0, 9.0]);
-    }
-
-    #[test]
-    fn boundary_steps_tell_a_step_at_the_boundary_from_the_relief_inside() {
-        let labels = Grid::from_vec(20, 10, (0..200).map(|i| (i % 20 >= 10) as u8).collect());
-        let smooth = Grid::from_vec(20, 10, (0..200).map(|i| 3.0 * (i % 20) as f32).collect());
-        let (a, i) = boundary_steps(&smooth, &labels);
-        assert_eq!((a, i), (3.0, 3.0));
-        let stepped =
-            Grid::from_vec(20, 10, (0..200).map(|i| 3.0 * (i % 20) as f32 + if i % 20 >= 10 { 100.0 } else { 0.0 }).collect());
-        assert_eq!(boundary_steps(&stepped, &labels), (103.0, 3.0));
+    fn polygons_label_their_cells_scaled_later_ones_over_earlier_and_the_rest_elsewhere() {
+        let poly = |name: &str, polys: Option<Vec<Vec<[f32; 2]>>>| RegionSpec { polygons: polys, ..spec(name, "", &["alps"]) };
+        // on a 10 x 10 canvas: a square, a triangle over part of it; the terrain 20 x 20
+        let square = vec![vec![[1.0, 1.0], [6.0, 1.0], [6.0, 6.0], [1.0, 6.0]]];
+        let triangle = vec![vec![[4.0, 4.0], [9.0, 4.0], [9.0, 9.0]]];
+        let regions = [poly("rest", None), poly("square", Some(square.clone())), poly("triangle", Some(triangle))];
+        let l = polygon_labels(&regions, (10, 10), (20, 20)).unwrap();
+        assert_eq!((l.get(0, 0), l.get(3, 3), l.get(9, 11), l.get(15, 9), l.get(17, 16), l.get(19, 19)), (0, 1, 1, 2, 2, 0));
+        // the square covers cells 2..12 each way: 100 of them, less what the triangle took
+        let in_square = l.data.iter().filter(|&&r| r == 1).count();
+        assert!(in_square < 100 && in_square > 80, "{in_square}");
+        // a cell in no polygon with no rest region, two rest regions, too few corners
+        let e = polygon_labels(&regions[1..], (10, 10), (20, 20)).unwrap_err();
+        assert!(e.contains("(0, 0) lies in no region"), "{e}");
+        let e = polygon_labels(&[poly("a", None), poly("b", Some(vec![]))], (10, 10), (20, 20)).unwrap_err();
+        assert!(e.contains("'a' and 'b' have no polygons"), "{e}");
+        let e = polygon_labels(&[poly("a", Some(vec![vec![[1.0, 1.0], [2.0, 2.0]]]))], (10, 10), (20, 20)).unwrap_err();
+        assert!(e.contains("region 'a': polygon 1 has 2 corners"), "{e}");
+        let e = polygon_labels(&[poly("a", Some(vec![vec![[1.0, 1.0], [2.0, f32::NAN], [3.0, 1.0]]]))], (10, 10), (20, 20))
+            .unwrap_err();
+        assert!(e.contains("far off the 10 x 10 sketch"), "{e}");
+        // polygons belong to a drawn map: a painted one refuses them
+        let painted = RegionMap {
+            what: "r.toml".into(),
+            map_file: None,
+            map: RegionPixels::Colours(map(4, 4, |_, _| [255, 0, 0])),
+            regions: vec![RegionSpec { polygons: Some(square), ..spec("peaks", "#ff0000", &["alps"]) }],
+            blend: None,
+        };
+        let e = painted.resolve(&["alps".into()], (4, 4), 16).unwrap_err();
+        assert!(e.contains("only a vector sketch's regions take"), "{e}");
     }
 }
