@@ -131,6 +131,9 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
     // an output finer than its exemplars: the synthesis at their cell size first (the
     // shards prepared there only), the detail finer than it from fine sources
     let detail = detail_level::plan(set, job.sources, (w, h));
+    if let Some(why) = detail.is_none().then(|| detail_level::passed_over(set, job.sources)).flatten() {
+        tracing::warn!("{why}: every exemplar is resampled to the output's cell size, with no detail level");
+    }
     let coarse = match &detail {
         None if set.large_scale => coarse_level::factor_for(w, h, p, cell_known),
         _ => None,

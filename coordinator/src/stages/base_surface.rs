@@ -527,6 +527,26 @@ mod tests {
     }
 
     #[test]
+    fn an_interpolated_coarse_terrain_passes_through_its_cells_values() {
+        // rough values on a 24 x 20 grid, three output cells a coarse cell
+        let (cw, ch) = (24, 20);
+        let values: Vec<f32> = (0..cw * ch).map(|i| ((i * 7919) % 97) as f32 * 10.0).collect();
+        let exact = BaseSurface::coarse_terrain(3, cw, ch, values.clone(), CoarseBand::Interpolated(0.375));
+        let blurred = BaseSurface::coarse_terrain(3, cw, ch, values.clone(), CoarseBand::Blurred(DETAIL_BAND));
+        let (mut worst, mut blur_err) = (0f32, 0f32);
+        for j in 3..ch - 3 {
+            for i in 3..cw - 3 {
+                // the output cell at a coarse cell's centre
+                let (x, y) = (3 * i + 1, 3 * j + 1);
+                worst = worst.max((exact.at(x, y) - values[j * cw + i]).abs());
+                blur_err = blur_err.max((blurred.at(x, y) - values[j * cw + i]).abs());
+            }
+        }
+        assert!(worst < 0.5, "the interpolated surface is {worst} m off a cell's value");
+        assert!(blur_err > 100.0, "the blurred one smooths them ({blur_err} m)");
+    }
+
+    #[test]
     fn empty_canvas_gives_a_flat_base() {
         let c = canvas_with(100, 70, 16, |_, _| f32::NAN);
         let b = BaseSurface::of(&c);

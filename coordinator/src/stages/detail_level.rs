@@ -125,6 +125,24 @@ pub fn plan(set: &JobSettings, sources: &[Arc<dyn ExemplarSource>], (w, h): (usi
     Some(DetailPlan { factor, out_cell: out, coarse_cell: out * factor as f32, coarse_patch, fine })
 }
 
+/// Why a job whose output is finer than its library gets no detail level, where
+/// that is for one of its settings (regions, an edit, `--wrap`, no large-scale form).
+pub fn passed_over(set: &JobSettings, sources: &[Arc<dyn ExemplarSource>]) -> Option<&'static str> {
+    let finer = set.cell_size.zip(common_cell_size(sources)).is_some_and(|(out, native)| native / out >= MIN_RATIO);
+    let why = if set.wrap {
+        "a tileable terrain (--wrap)"
+    } else if set.regions.is_some() {
+        "regions"
+    } else if set.edit.is_some() {
+        "an edit of a terrain"
+    } else if !set.large_scale {
+        "--no-large-scale"
+    } else {
+        return None;
+    };
+    finer.then_some(why)
+}
+
 /// How the detail generator was fitted to the coarse terrain.
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
 pub struct Calibration {
@@ -310,6 +328,10 @@ mod tests {
         // nor without the large-scale form, or with tileable output
         assert!(plan(&JobSettings { large_scale: false, ..set(Some(10.0)) }, &lib, (1024, 1024)).is_none());
         assert!(plan(&JobSettings { wrap: true, ..set(Some(10.0)) }, &lib, (1024, 1024)).is_none());
+        // and those say why
+        assert!(passed_over(&JobSettings { wrap: true, ..set(Some(10.0)) }, &lib).is_some_and(|w| w.contains("--wrap")));
+        assert_eq!(passed_over(&set(Some(10.0)), &lib), None);
+        assert_eq!(passed_over(&JobSettings { wrap: true, ..set(Some(90.0)) }, &lib), None, "not finer: nothing passed over");
     }
 
     /// A fractal surface of Hurst exponent `h` (midpoint displacement would do; a sum
