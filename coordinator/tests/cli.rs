@@ -1019,16 +1019,15 @@ fn regions_take_their_own_exemplars_and_meet_without_a_step() {
         format!("map = \"map.png\"\nblend = {blend}\n[[region]]\nname = \"range\"\ncolour = \"#dc001e\"\nexemplars = [\"{crests}\"]\n[[region]]\nname = \"rolling\"\ncolour = \"#00c81e\"\nexemplars = [\"downs\", \"moor\"]\n")
     };
     std::fs::write(d.join("regions.toml"), regions("crests", 16)).unwrap();
-    let synth = |extra: &[&str], out: &str| {
+    // a job on `sketch` (with more arguments), its report beside the terrain
+    let job = |sketch: &Path, extra: &[&str], out: &str| {
         bin()
             .args(["synth", "--patch-size", "32", "--seed", "4", "--sketch"])
-            .arg(&sketch)
+            .arg(sketch)
             .arg("--exemplars")
             .arg(&m)
             .arg("--cache-dir")
             .arg(d.join("cache"))
-            .arg("--regions")
-            .arg(d.join("regions.toml"))
             .arg("--out")
             .arg(d.join(out))
             .arg("--report")
@@ -1037,6 +1036,8 @@ fn regions_take_their_own_exemplars_and_meet_without_a_step() {
             .output()
             .unwrap()
     };
+    let regions_file = d.join("regions.toml");
+    let synth = |extra: &[&str], out: &str| job(&sketch, &[&["--regions", regions_file.to_str().unwrap()], extra].concat(), out);
     let o = synth(&[], "t.tif");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let t = ridgeline_terrain::dem_formats::read_dem(&d.join("t.tif"), None, 4096).unwrap().heights;
@@ -1110,22 +1111,7 @@ fn regions_take_their_own_exemplars_and_meet_without_a_step() {
         .to_string()
     };
     std::fs::write(d.join("drawn.json"), vector(&ellipse)).unwrap();
-    let drawn = |extra: &[&str], out: &str| {
-        bin()
-            .args(["synth", "--patch-size", "32", "--seed", "4", "--size", "192x160", "--sketch"])
-            .arg(d.join("drawn.json"))
-            .arg("--exemplars")
-            .arg(&m)
-            .arg("--cache-dir")
-            .arg(d.join("cache"))
-            .arg("--out")
-            .arg(d.join(out))
-            .arg("--report")
-            .arg(d.join(format!("{out}.json")))
-            .args(extra)
-            .output()
-            .unwrap()
-    };
+    let drawn = |extra: &[&str], out: &str| job(&d.join("drawn.json"), &[&["--size", "192x160"], extra].concat(), out);
     let o = drawn(&[], "drawn.tif");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let report: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("drawn.tif.json")).unwrap()).unwrap();
