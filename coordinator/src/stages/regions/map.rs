@@ -103,6 +103,10 @@ impl SketchRegions {
 #[serde(deny_unknown_fields)]
 struct RegionsFile {
     map: PathBuf,
+    /// The map is a grey PNG of labels (each pixel its region's index in the file's
+    /// order) rather than colours.
+    #[serde(default)]
+    labels: bool,
     #[serde(default)]
     blend: Option<usize>,
     region: Vec<RegionSpec>,
@@ -133,9 +137,16 @@ impl RegionMap {
         let map = path.parent().unwrap_or(Path::new(".")).join(&file.map);
         let bytes = ridgeline_terrain::io::read_input(&map, ridgeline_terrain::io::raster_byte_limit(max_side))
             .map_err(|e| format!("{what}: the map: {e}"))?;
-        let image =
-            ridgeline_terrain::io::decode_image(&map, &bytes, max_side).map_err(|e| format!("{what}: the map: {e}"))?.to_rgb8();
-        Ok(RegionMap { what, map_file: Some(map), map: RegionPixels::Colours(image), regions: file.region, blend: file.blend })
+        let image = ridgeline_terrain::io::decode_image(&map, &bytes, max_side).map_err(|e| format!("{what}: the map: {e}"))?;
+        let pixels = match file.labels {
+            true => {
+                let grey = image.to_luma8();
+                let (w, h) = (grey.width() as usize, grey.height() as usize);
+                RegionPixels::Labels(Grid::from_vec(w, h, grey.into_raw()))
+            }
+            false => RegionPixels::Colours(image.to_rgb8()),
+        };
+        Ok(RegionMap { what, map_file: Some(map), map: pixels, regions: file.region, blend: file.blend })
     }
 
     /// The regions of a `w x h` job on a library whose exemplars are named `names`
@@ -508,5 +519,25 @@ mod tests {
         };
         let e = painted.resolve(&["alps".into()], (4, 4), 16).unwrap_err();
         assert!(e.contains("only a vector sketch's regions take"), "{e}");
+    }
+
+    #[test]
+    fn a_grey_png_of_labels_is_a_map_when_the_file_says_so() {
+        let d = std::env::temp_dir().join(format!("rl-labels-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        // the left half 0, the right half 1; then a stray 2
+        let mut grey = image::GrayImage::from_fn(20, 8, |x, _| image::Luma([u8::from(x >= 10)]));
+        grey.save(d.join("labels.png")).unwrap();
+        let file = "map = \"labels.png\"\nlabels = true\n[[region]]\nname = \"a\"\nexemplars = [\"alps\"]\n[[region]]\nname = \"b\"\nexemplars = [\"gobi\"]\n";
+        std::fs::write(d.join("r.toml"), file).unwrap();
+        let names: Vec<String> = vec!["alps".into(), "gobi".into()];
+        let r = RegionMap::read(&d.join("r.toml"), 4096).unwrap().resolve(&names, (20, 8), 16).unwrap();
+        assert_eq!((r.labels.get(9, 3), r.labels.get(10, 3)), (0, 1));
+        assert_eq!(r.cells(), vec![80, 80]);
+        grey.put_pixel(3, 4, image::Luma([2]));
+        grey.save(d.join("labels.png")).unwrap();
+        let e = RegionMap::read(&d.join("r.toml"), 4096).unwrap().resolve(&names, (20, 8), 16).unwrap_err();
+        assert!(e.contains("r.toml") && e.contains("label 2 at (3, 4)"), "{e}");
+        std::fs::remove_dir_all(&d).ok();
     }
 }
