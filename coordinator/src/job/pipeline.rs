@@ -269,6 +269,15 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
         Ok(fill_holes(&mut canvas, level_shards, &fill, cx.pool, &on_fill, cx.cancel)?)
     })?;
 
+    // the generator's detail scaled by how rough the coarse terrain is (see
+    // `detail_level::modulate`); detail from fine sources is their own
+    let mut fine = fine;
+    if let (Some((_, stats)), Some(c), Some(f)) = (fine.as_mut(), &coarse_done, &form) {
+        if stats.generator.is_some() {
+            stats.modulation = Some(detail_level::modulate(&mut canvas.heights, &f.target, &c.canvas.heights, c.factor));
+        }
+    }
+
     let sketch_fit = match set.fit_sketch {
         true => run.run(Stage::SketchFit, |cx| Ok(cx.install(|| fit_to_sketch(&mut canvas.heights, &sk, p))))?,
         false => FitStats::default(),

@@ -25,10 +25,12 @@
 //!    the coarse terrain's own spectrum ([`detail_generator`]): fBm whose octaves
 //!    span the coarse cell down to two output cells, with the gain `2^-H` of the
 //!    coarse terrain's Hurst exponent (measured from its median steps at one and
-//!    four cells) and an amplitude such that the output's median step at one cell is
-//!    what the coarse steps extrapolate to (`d₁·f^-H`, of which the interpolated
+//!    four cells) and an amplitude such that the output's median step at one cell
+//!    is what the coarse steps extrapolate to (`d₁·f^-H`, of which the interpolated
 //!    coarse surface gives `d₁/f`). It is a source like any other: its recipe goes
-//!    to the workers, its patches are matched and merged.
+//!    to the workers, its patches are matched and merged; once filled, its detail
+//!    is scaled cell by cell by the coarse terrain's local roughness ([`modulate`]:
+//!    plains get little, cliffs much).
 //! 4. The output level places the strokes' patches and fills every cell from the
 //!    fine sources on that surface, then fits the sketch; the output's provenance is
 //!    the coarse level's ([`adopt_coarse_provenance`]): which exemplar made the form
@@ -45,7 +47,7 @@
 
 use crate::canvas::Canvas;
 use crate::job::settings::{JobSettings, MIN_PATCH};
-use crate::stages::base_surface::{gaussian_blur, CoarseBand};
+use crate::stages::base_surface::{gaussian_blur, BaseSurface, CoarseBand};
 use crate::stages::exemplars::common_cell_size;
 use ridgeline_terrain::exemplar_source::ExemplarSource;
 use ridgeline_terrain::generators::{Noise, NoiseKind};
@@ -223,6 +225,77 @@ pub fn detail_generator(coarse: &Heightfield, plan: &DetailPlan, patch: usize, s
     (noise, cal)
 }
 
+/// Half the side of the window (coarse cells) over which the coarse terrain's local
+/// roughness is taken, and the range the detail's scale is held within.
+const ROUGHNESS_REACH: usize = 2;
+const MODULATION: (f32, f32) = (0.25, 2.5);
+
+/// The generator's detail, stationary as made, scaled cell by cell by how rough the
+/// coarse terrain is there (its mean step over a window of 5 x 5 coarse cells against
+/// the median of that over the terrain): plains get little, cliffs much, as in real
+/// terrain. `h` is the output, `surface` what its detail was laid on (the coarse
+/// terrain interpolated), `coarse` the coarse terrain, `f` output cells a coarse
+/// cell. Returns the least and the largest scale.
+pub fn modulate(h: &mut Heightfield, surface: &BaseSurface, coarse: &Heightfield, f: usize) -> [f32; 2] {
+    let (cw, ch) = (coarse.width, coarse.height);
+    // each coarse cell's mean step to its right and lower neighbours
+    let step = |x: usize, y: usize| {
+        let v = coarse.data[y * cw + x];
+        let (mut s, mut n) = (0f32, 0f32);
+        for (nx, ny) in [(x + 1, y), (x, y + 1)] {
+            if nx < cw && ny < ch && (coarse.data[ny * cw + nx] - v).is_finite() {
+                s += (coarse.data[ny * cw + nx] - v).abs();
+                n += 1.0;
+            }
+        }
+        if n > 0.0 {
+            s / n
+        } else {
+            0.0
+        }
+    };
+    let steps: Vec<f32> = (0..cw * ch).map(|i| step(i % cw, i / cw)).collect();
+    let k = ROUGHNESS_REACH;
+    let local: Vec<f32> = (0..cw * ch)
+        .map(|i| {
+            let (x, y) = (i % cw, i / cw);
+            let (mut s, mut n) = (0f32, 0f32);
+            for yy in y.saturating_sub(k)..(y + k + 1).min(ch) {
+                for xx in x.saturating_sub(k)..(x + k + 1).min(cw) {
+                    s += steps[yy * cw + xx];
+                    n += 1.0;
+                }
+            }
+            s / n
+        })
+        .collect();
+    let typical = percentile(&mut local.clone(), 50).unwrap_or(0.0);
+    if typical.is_nan() || typical <= 0.0 {
+        return [1.0, 1.0];
+    }
+    let scale: Vec<f32> = local.iter().map(|&r| (r / typical).clamp(MODULATION.0, MODULATION.1)).collect();
+    let (w, hh) = (h.width, h.height);
+    let mut range = [f32::MAX, f32::MIN];
+    for y in 0..hh {
+        let v = ((y as f32 + 0.5) / f as f32 - 0.5).clamp(0.0, (ch - 1) as f32);
+        let (y0, fy) = (v.floor() as usize, v - v.floor());
+        let y1 = (y0 + 1).min(ch - 1);
+        for x in 0..w {
+            let u = ((x as f32 + 0.5) / f as f32 - 0.5).clamp(0.0, (cw - 1) as f32);
+            let (x0, fx) = (u.floor() as usize, u - u.floor());
+            let x1 = (x0 + 1).min(cw - 1);
+            let top = scale[y0 * cw + x0] * (1.0 - fx) + scale[y0 * cw + x1] * fx;
+            let bottom = scale[y1 * cw + x0] * (1.0 - fx) + scale[y1 * cw + x1] * fx;
+            let m = top * (1.0 - fy) + bottom * fy;
+            range = [range[0].min(m), range[1].max(m)];
+            let s = surface.at(x, y);
+            let c = &mut h.data[y * w + x];
+            *c = s + m * (*c - s);
+        }
+    }
+    range
+}
+
 /// The output canvas takes the coarse level's provenance: each output cell the
 /// coarse patch its coarse cell came from, the placements' centres scaled to the
 /// output (the output level's own placements, of detail only, are dropped; its
@@ -280,6 +353,10 @@ pub struct DetailStats {
     pub generator: Option<ridgeline_terrain::exemplar_source::Recipe>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub calibration: Option<Calibration>,
+    /// The least and largest scale the generator's detail took from the coarse
+    /// terrain's local roughness ([`modulate`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub modulation: Option<[f32; 2]>,
     /// The output's median step at one cell, against the coarse terrain's at one
     /// coarse cell, metres.
     pub step_m: f32,
@@ -404,5 +481,29 @@ mod tests {
         assert_eq!((a.width, a.height), (4, 3));
         assert_eq!(a.data[0], 1.0);
         assert_eq!(a.data[3], 9.0, "the last column averages what is left");
+    }
+
+    #[test]
+    fn the_detail_is_scaled_by_how_rough_the_coarse_terrain_is_there() {
+        // a coarse terrain flat on the left, rough on the right; the output's detail
+        // the same everywhere before
+        let (cw, ch, f) = (32, 16, 4);
+        let coarse = Grid::from_vec(
+            cw,
+            ch,
+            (0..cw * ch).map(|i| if i % cw < 16 { 500.0 } else { ((i * 37) % 11) as f32 * 40.0 }).collect(),
+        );
+        let surface = BaseSurface::from_grid(f, cw, ch, vec![500.0; cw * ch]);
+        let (w, h) = (cw * f, ch * f);
+        let wave = |x: usize, y: usize| 3.0 * ((x * 7 + y * 3) % 5) as f32 - 6.0;
+        let mut out = Grid::from_vec(w, h, (0..w * h).map(|i| 500.0 + wave(i % w, i / w)).collect());
+        let range = modulate(&mut out, &surface, &coarse, f);
+        assert!(range[0] == MODULATION.0 && range[1] > 1.0, "the plain held at the least scale: {range:?}");
+        let amp = |x0: usize, x1: usize| {
+            (0..h).flat_map(|y| (x0..x1).map(move |x| (x, y))).map(|(x, y)| (out.get(x, y) - 500.0).abs()).sum::<f32>()
+                / ((x1 - x0) * h) as f32
+        };
+        let (flat, rough) = (amp(0, 40), amp(88, 128));
+        assert!(rough > 5.0 * flat, "detail {flat} on the plain, {rough} on the rough ground");
     }
 }
