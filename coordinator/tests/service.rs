@@ -572,6 +572,26 @@ fn the_api_edits_an_earlier_job_s_terrain_and_makes_regions_of_their_own_exempla
     }
     let changed = (0..new.len()).filter(|&i| i % 128 >= 64 && new[i] != base[i]).count();
     assert!(changed > 128 * 64 / 2, "{changed} cells of the right half made anew");
+    // a cell size a third of the library's: the job is made at 90 m and the detail
+    // added at 30 m (`stages::detail_level`)
+    let fine =
+        run(serde_json::json!({ "sketch": sketch, "seed": 2, "patch_size": 32, "width": 384, "height": 384, "cell_size": 30 }));
+    let mut rb = Vec::new();
+    ureq::get(&format!("{}/api/jobs/{fine}/files/report.json", s.url))
+        .call()
+        .unwrap()
+        .into_reader()
+        .read_to_end(&mut rb)
+        .unwrap();
+    let report: serde_json::Value = serde_json::from_slice(&rb).unwrap();
+    assert_eq!(
+        (report["cell_size_m"].as_f64(), report["detail"]["factor"].as_u64()),
+        (Some(30.0), Some(3)),
+        "{}",
+        report["detail"]
+    );
+    let (code, e) = post(&format!("{}/api/jobs", s.url), &serde_json::json!({ "sketch": sketch, "cell_size": -5 }), None);
+    assert!(code == 400 && e["error"].as_str().unwrap().contains("cell size -5"), "{e}");
     // an edit of a job that is not there, or with two modes, is refused at once
     let (code, e) = post(
         &format!("{}/api/jobs", s.url),

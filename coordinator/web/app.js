@@ -140,7 +140,7 @@ $('load-sketch').addEventListener('change', async (e) => {
   }
 });
 
-const SETTINGS = ['width', 'height', 'seed', 'patch', 'tiles', 'tile-format', 'range-lo', 'range-hi', 'erode', 'masks', 'realism', 'debug', 'wrap', 'edit-mode', 'grow'];
+const SETTINGS = ['width', 'height', 'seed', 'patch', 'tiles', 'tile-format', 'cell', 'range-lo', 'range-hi', 'erode', 'masks', 'realism', 'debug', 'wrap', 'edit-mode', 'grow'];
 function keep() {
   const settings = {};
   for (const id of SETTINGS) settings[id] = $(id).type === 'checkbox' ? $(id).checked : $(id).value;
@@ -538,6 +538,8 @@ $('submit').addEventListener('click', async () => {
   if (lo !== '' && Number(hi) <= Number(lo)) { showError('the highest elevation must be above the lowest'); return; }
   const erode = $('erode').value === '' ? 0 : Number($('erode').value);
   if (!(erode >= 0 && erode <= 10)) { showError(`erosion ${$('erode').value}: give a strength from 0 (none) to 10`); return; }
+  const cell = $('cell').value === '' ? null : Number($('cell').value);
+  if (cell !== null && !(cell > 0 && cell <= 100000)) { showError(`cell size ${$('cell').value}: give metres above 0, at most 100000 (empty: the exemplars')`); return; }
   const body = {
     sketch: { strokes: pad.toJSON() },
     exemplars: chosen.length === checkboxes().length ? null : chosen,
@@ -550,6 +552,7 @@ $('submit').addEventListener('click', async () => {
     debug: $('debug').checked,
     elevation_range: lo === '' ? null : [Number(lo), Number(hi)],
     erode: erode > 0 ? erode : null,
+    cell_size: cell,
     wrap: $('wrap').checked,
   };
   try {

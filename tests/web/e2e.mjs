@@ -187,6 +187,12 @@ try {
   await page.click('#submit');
   if (!(await page.textContent('#error')).includes('erosion 12')) fail(`erosion 12 not refused: '${await page.textContent('#error')}'`);
   await page.fill('#erode', '2');
+  // a cell size that is no length is refused on the page; empty sends none (the
+  // exemplars' own)
+  await page.fill('#cell', '-3');
+  await page.click('#submit');
+  if (!(await page.textContent('#error')).includes('cell size -3')) fail(`cell size -3 not refused: '${await page.textContent('#error')}'`);
+  await page.fill('#cell', '');
 
   const posted = page.waitForRequest((r) => r.url().endsWith('/api/jobs') && r.method() === 'POST');
   await page.click('#submit');
@@ -196,7 +202,7 @@ try {
     fail(`the ridge was sent without its elevation at every point: ${JSON.stringify(ridgeSent).slice(0, 200)}`);
   if (valleySent.elevations) fail('the valley, drawn with the elevation unset, was sent with elevations');
   if (JSON.stringify(sent.elevation_range) !== JSON.stringify(RANGE)) fail(`elevation_range sent: ${JSON.stringify(sent.elevation_range)}`);
-  if (!sent.masks || !sent.realism || sent.tile_format !== 'exr' || sent.tiles !== 129 || sent.erode !== 2) fail(`options sent: ${JSON.stringify({ ...sent, sketch: undefined })}`);
+  if (!sent.masks || !sent.realism || sent.tile_format !== 'exr' || sent.tiles !== 129 || sent.erode !== 2 || sent.cell_size !== null) fail(`options sent: ${JSON.stringify({ ...sent, sketch: undefined })}`);
   if (JSON.stringify(sent.exemplars) !== JSON.stringify(['appalachians.png', 'highlands.png', 'rockies.png'])) fail(`exemplars sent: ${JSON.stringify(sent.exemplars)}`);
   await page.waitForSelector('#job-state[data-state=done], #job-state[data-state=failed]', { timeout: 300000 });
   const state = await page.getAttribute('#job-state', 'data-state');

@@ -47,6 +47,10 @@ pub struct JobRequest {
     pub width: Option<usize>,
     #[serde(default)]
     pub height: Option<usize>,
+    /// Output cell size in metres (`synth --cell-size`; default the library's most
+    /// common). Finer than the library's, the job gets a detail level.
+    #[serde(default)]
+    pub cell_size: Option<f32>,
     /// Also cut the terrain into tiles of this many samples a side.
     #[serde(default)]
     pub tiles: Option<usize>,
@@ -177,6 +181,9 @@ fn job_builder(
         .wrap(req.wrap);
     if let (Some(w), Some(h)) = (req.width, req.height) {
         b = b.size(w, h);
+    }
+    if let Some(c) = req.cell_size {
+        b = b.cell_size(c);
     }
     b
 }
