@@ -35,6 +35,25 @@ fn small_sketch(d: &Path) -> PathBuf {
     p
 }
 
+/// `synth` at patch 32 with `seed` on `sketch` and the library `lib`, the cache, the
+/// terrain `out` and its report (`out.json`) in `d`, and more arguments.
+fn synth_in(d: &Path, sketch: &Path, lib: &Path, seed: &str, extra: &[&str], out: &str) -> std::process::Output {
+    bin()
+        .args(["synth", "--patch-size", "32", "--seed", seed, "--sketch"])
+        .arg(sketch)
+        .arg("--exemplars")
+        .arg(lib)
+        .arg("--cache-dir")
+        .arg(d.join("cache"))
+        .arg("--out")
+        .arg(d.join(out))
+        .arg("--report")
+        .arg(d.join(format!("{out}.json")))
+        .args(extra)
+        .output()
+        .unwrap()
+}
+
 fn stderr_of(c: &mut Command) -> (bool, String) {
     let o = c.output().unwrap();
     (o.status.success(), String::from_utf8_lossy(&o.stderr).into_owned())
@@ -90,20 +109,7 @@ fn an_output_finer_than_its_exemplars_gets_detail_of_its_own() {
     )
     .unwrap();
     let synth = |lib: &Path, cell: &str, size: &str, extra: &[&str], out: &str| {
-        let o = bin()
-            .args(["synth", "--patch-size", "32", "--seed", "2", "--cell-size", cell, "--size", size, "--sketch"])
-            .arg(&sketch)
-            .arg("--exemplars")
-            .arg(lib)
-            .arg("--cache-dir")
-            .arg(d.join("cache"))
-            .arg("--out")
-            .arg(d.join(out))
-            .arg("--report")
-            .arg(d.join(format!("{out}.json")))
-            .args(extra)
-            .output()
-            .unwrap();
+        let o = synth_in(&d, &sketch, lib, "2", &[&["--cell-size", cell, "--size", size], extra].concat(), out);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         let report: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join(format!("{out}.json"))).unwrap()).unwrap();
         (ridgeline_terrain::dem_formats::read_dem(&d.join(out), None, 4096).unwrap().heights, report)
@@ -1020,22 +1026,7 @@ fn regions_take_their_own_exemplars_and_meet_without_a_step() {
     };
     std::fs::write(d.join("regions.toml"), regions("crests", 16)).unwrap();
     // a job on `sketch` (with more arguments), its report beside the terrain
-    let job = |sketch: &Path, extra: &[&str], out: &str| {
-        bin()
-            .args(["synth", "--patch-size", "32", "--seed", "4", "--sketch"])
-            .arg(sketch)
-            .arg("--exemplars")
-            .arg(&m)
-            .arg("--cache-dir")
-            .arg(d.join("cache"))
-            .arg("--out")
-            .arg(d.join(out))
-            .arg("--report")
-            .arg(d.join(format!("{out}.json")))
-            .args(extra)
-            .output()
-            .unwrap()
-    };
+    let job = |sketch: &Path, extra: &[&str], out: &str| synth_in(&d, sketch, &m, "4", extra, out);
     let regions_file = d.join("regions.toml");
     let synth = |extra: &[&str], out: &str| job(&sketch, &[&["--regions", regions_file.to_str().unwrap()], extra].concat(), out);
     let o = synth(&[], "t.tif");
