@@ -179,9 +179,9 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
         (None, Some(f)) => Some((COARSE_LEVEL, f, p, CoarseBand::Blurred(DETAIL_BAND))),
         (None, None) => None,
     };
-    let (form, coarse_done, fine) = match (form, coarse_run) {
-        (Some(_), Some((level, f, cp, band))) if library_at(level).is_some() => {
-            let lib = library_at(level).expect("checked");
+    let coarse_run = coarse_run.and_then(|(level, f, cp, band)| Some((level, f, cp, band, library_at(level)?)));
+    let (form, coarse_done, mut fine) = match (form, coarse_run) {
+        (Some(_), Some((level, f, cp, band, lib))) => {
             let (form, c, fine) = run.run(Stage::CoarseLevel, |cx| {
                 let mut c = CoarseJob::new(&sk, f, &lib, cp, set.elevation_range);
                 let ups = user_patches(&c.sketch, cp);
@@ -207,12 +207,13 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
                 // the output level's sources: the library's fine ones, else a generator
                 // made for the job from the coarse terrain (see `detail_level`)
                 let fine = match &detail {
-                    Some(d) => Some(cx.install(|| load_fine(d, &c, &job, &load, p))?),
+                    Some(d) => Some(cx.install(|| load_fine(d, &c, &job, &what, &load, p))?),
                     None => None,
                 };
                 Ok((form, c, fine))
             })?;
-            (Some(form), Some(c), fine)
+            // the coarse level itself is kept only for a detail level's output
+            (Some(form), detail.is_some().then_some(c), fine)
         }
         (form, _) => (form, None, None),
     };
@@ -266,16 +267,21 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
             cx.placements(c);
         };
         let fill = FillSettings { level: OUTPUT_LEVEL, seed: set.seed, base };
-        Ok(fill_holes(&mut canvas, level_shards, &fill, cx.pool, &on_fill, cx.cancel)?)
+        let filled = fill_holes(&mut canvas, level_shards, &fill, cx.pool, &on_fill, cx.cancel)?;
+        // a detail level's generator: its detail, once every cell is filled, scaled by
+        // how rough the coarse terrain is (`detail_level::modulate`); detail from fine
+        // sources is their own
+        let modulation = match (&fine, &coarse_done, &form) {
+            (Some((_, stats)), Some(c), Some(f)) if stats.generator.is_some() => {
+                Some(cx.install(|| detail_level::modulate(&mut canvas.heights, &f.target, &c.canvas.heights, c.factor)))
+            }
+            _ => None,
+        };
+        Ok((filled, modulation))
     })?;
-
-    // the generator's detail scaled by how rough the coarse terrain is (see
-    // `detail_level::modulate`); detail from fine sources is their own
-    let mut fine = fine;
-    if let (Some((_, stats)), Some(c), Some(f)) = (fine.as_mut(), &coarse_done, &form) {
-        if stats.generator.is_some() {
-            stats.modulation = Some(detail_level::modulate(&mut canvas.heights, &f.target, &c.canvas.heights, c.factor));
-        }
+    let (filling, modulation) = filling;
+    if let Some((_, stats)) = fine.as_mut() {
+        stats.modulation = modulation;
     }
 
     let sketch_fit = match set.fit_sketch {
@@ -438,9 +444,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
         seam_smoothing,
         detail: detail_stats,
     });
-    // the detail level's coarse level, for the realism figures at the exemplars' cell
-    let detail_level = coarse_done.filter(|_| detail.is_some());
-    let out = SynthOutput { sketch_image, features_only, sketch: sk, user_patches: ups, canvas, form, detail_level };
+    let out = SynthOutput { sketch_image, features_only, sketch: sk, user_patches: ups, canvas, form, detail_level: coarse_done };
     Ok((out, report))
 }
 
@@ -451,6 +455,7 @@ fn load_fine(
     d: &DetailPlan,
     coarse: &CoarseLevel,
     job: &JobInputs,
+    what: &str,
     coarse_load: &LoadSettings,
     patch: usize,
 ) -> Result<(crate::shards::Shards, DetailStats), SynthError> {
@@ -469,10 +474,7 @@ fn load_fine(
     };
     stats.fine_sources = only.iter().map(|&i| sources[i as usize].name()).collect();
     let load = LoadSettings { patch, cell_size: Some(d.out_cell), coarse: None, ..coarse_load.clone() };
-    let what = format!(
-        "{} (the detail level's fine sources)",
-        job.library.map_or_else(|| "(exemplars in memory)".into(), |p| p.display().to_string())
-    );
+    let what = format!("{what} (the detail level's fine sources)");
     let loaded = exemplars::load(&sources, Some(&only), &what, job.fleet, job.backend.in_process(), &load)?;
     Ok((loaded.shards, stats))
 }

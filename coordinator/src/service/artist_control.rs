@@ -65,7 +65,7 @@ pub fn region_map(
             SketchSource::File(_) => return Err(bad("regions: give map_png_base64 (a sketch file has no canvas here)")),
         };
         let drawn = SketchRegions { blend: req.blend, regions: req.regions.clone() };
-        return Ok(RegionMap { what: "the regions".into(), ..drawn.map("the sketch", width, height) });
+        return Ok(drawn.map("the sketch", width, height));
     };
     let name = "the region map";
     let bytes = uploaded_image(png, name, max_side)?;

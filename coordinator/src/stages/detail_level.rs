@@ -49,6 +49,7 @@ use crate::canvas::Canvas;
 use crate::job::settings::{JobSettings, MIN_PATCH};
 use crate::stages::base_surface::{gaussian_blur, BaseSurface, CoarseBand};
 use crate::stages::exemplars::common_cell_size;
+use rayon::prelude::*;
 use ridgeline_terrain::exemplar_source::ExemplarSource;
 use ridgeline_terrain::generators::{Noise, NoiseKind};
 use ridgeline_terrain::grid::{Grid, Heightfield};
@@ -107,11 +108,7 @@ pub fn plan(set: &JobSettings, sources: &[Arc<dyn ExemplarSource>], (w, h): (usi
         return None;
     }
     let out = set.cell_size?;
-    let native = common_cell_size(sources)?;
-    let ratio = native / out;
-    if ratio.is_nan() || ratio < MIN_RATIO {
-        return None;
-    }
+    let ratio = fineness(set, sources)?;
     let factor = (ratio.round() as usize).max(2);
     let side = w.div_ceil(factor).min(h.div_ceil(factor));
     let coarse_patch = (set.patch.min(side / 4) & !1).max(MIN_PATCH);
@@ -127,10 +124,17 @@ pub fn plan(set: &JobSettings, sources: &[Arc<dyn ExemplarSource>], (w, h): (usi
     Some(DetailPlan { factor, out_cell: out, coarse_cell: out * factor as f32, coarse_patch, fine })
 }
 
+/// How many times finer than the library's common cell the output's is, where it
+/// is at least [`MIN_RATIO`] times.
+fn fineness(set: &JobSettings, sources: &[Arc<dyn ExemplarSource>]) -> Option<f32> {
+    let ratio = common_cell_size(sources)? / set.cell_size?;
+    (ratio >= MIN_RATIO).then_some(ratio)
+}
+
 /// Why a job whose output is finer than its library gets no detail level, where
 /// that is for one of its settings (regions, an edit, `--wrap`, no large-scale form).
 pub fn passed_over(set: &JobSettings, sources: &[Arc<dyn ExemplarSource>]) -> Option<&'static str> {
-    let finer = set.cell_size.zip(common_cell_size(sources)).is_some_and(|(out, native)| native / out >= MIN_RATIO);
+    let finer = fineness(set, sources).is_some();
     let why = if set.wrap {
         "a tileable terrain (--wrap)"
     } else if set.regions.is_some() {
@@ -274,26 +278,38 @@ pub fn modulate(h: &mut Heightfield, surface: &BaseSurface, coarse: &Heightfield
         return [1.0, 1.0];
     }
     let scale: Vec<f32> = local.iter().map(|&r| (r / typical).clamp(MODULATION.0, MODULATION.1)).collect();
+    // the scale bilinear between coarse cell centres: the two cells and the weight
+    // of the second along an axis, for each output cell of it
+    let taps = |n: usize, cn: usize| -> Vec<(usize, usize, f32)> {
+        (0..n)
+            .map(|i| {
+                let u = ((i as f32 + 0.5) / f as f32 - 0.5).clamp(0.0, (cn - 1) as f32);
+                let i0 = u.floor() as usize;
+                (i0, (i0 + 1).min(cn - 1), u - u.floor())
+            })
+            .collect()
+    };
     let (w, hh) = (h.width, h.height);
-    let mut range = [f32::MAX, f32::MIN];
-    for y in 0..hh {
-        let v = ((y as f32 + 0.5) / f as f32 - 0.5).clamp(0.0, (ch - 1) as f32);
-        let (y0, fy) = (v.floor() as usize, v - v.floor());
-        let y1 = (y0 + 1).min(ch - 1);
-        for x in 0..w {
-            let u = ((x as f32 + 0.5) / f as f32 - 0.5).clamp(0.0, (cw - 1) as f32);
-            let (x0, fx) = (u.floor() as usize, u - u.floor());
-            let x1 = (x0 + 1).min(cw - 1);
-            let top = scale[y0 * cw + x0] * (1.0 - fx) + scale[y0 * cw + x1] * fx;
-            let bottom = scale[y1 * cw + x0] * (1.0 - fx) + scale[y1 * cw + x1] * fx;
-            let m = top * (1.0 - fy) + bottom * fy;
-            range = [range[0].min(m), range[1].max(m)];
-            let s = surface.at(x, y);
-            let c = &mut h.data[y * w + x];
-            *c = s + m * (*c - s);
-        }
-    }
-    range
+    let (xs, ys) = (taps(w, cw), taps(hh, ch));
+    // rows apart in parallel; the range's least and largest do not depend on the order
+    h.data
+        .par_chunks_mut(w)
+        .enumerate()
+        .map(|(y, row)| {
+            let (y0, y1, fy) = ys[y];
+            let mut range = [f32::MAX, f32::MIN];
+            for (x, c) in row.iter_mut().enumerate() {
+                let (x0, x1, fx) = xs[x];
+                let top = scale[y0 * cw + x0] * (1.0 - fx) + scale[y0 * cw + x1] * fx;
+                let bottom = scale[y1 * cw + x0] * (1.0 - fx) + scale[y1 * cw + x1] * fx;
+                let m = top * (1.0 - fy) + bottom * fy;
+                range = [range[0].min(m), range[1].max(m)];
+                let s = surface.at(x, y);
+                *c = s + m * (*c - s);
+            }
+            range
+        })
+        .reduce(|| [f32::MAX, f32::MIN], |a, b| [a[0].min(b[0]), a[1].max(b[1])])
 }
 
 /// The output canvas takes the coarse level's provenance: each output cell the

@@ -161,6 +161,10 @@ impl RegionMap {
                 "{what}: the map is {mw} x {mh} cells, the terrain {w} x {h}: paint the map at the sketch's size"
             ));
         }
+        let drawn = matches!(self.map, RegionPixels::Drawn { .. });
+        if let Some(r) = self.regions.iter().find(|r| !drawn && r.polygons.is_some()) {
+            return Err(format!("{what}: region '{}' has polygons, which only a vector sketch's regions take", r.name));
+        }
         let mut colours = Vec::new();
         let mut regions = Vec::new();
         for (i, r) in self.regions.iter().enumerate() {
@@ -169,7 +173,6 @@ impl RegionMap {
                 return Err(format!("{what}: two regions are named '{name}'"));
             }
             if let RegionPixels::Colours(_) = self.map {
-                // (a painted map's regions are told by their colours)
                 let given = r.colour.as_deref().unwrap_or("");
                 let colour = parse_colour(given).ok_or_else(|| {
                     format!("{what}: region '{name}': '{given}' is not a colour #rrggbb (the map's colour of the region)")
@@ -208,11 +211,6 @@ impl RegionMap {
                 polygon_labels(&self.regions, (width, height), (w, h)).map_err(|m| format!("{what}: {m}"))?
             }
         };
-        if let (false, Some(r)) =
-            (matches!(self.map, RegionPixels::Drawn { .. }), self.regions.iter().find(|r| r.polygons.is_some()))
-        {
-            return Err(format!("{what}: region '{}' has polygons, which only a vector sketch's regions take", r.name));
-        }
         let blend = self.blend.unwrap_or(patch / 2);
         if blend > 4 * patch {
             return Err(format!("{what}: a blend of {blend} cells is wider than four patches ({})", 4 * patch));
