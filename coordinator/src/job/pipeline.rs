@@ -67,7 +67,7 @@ use crate::progress::Stage;
 use crate::stages::base_surface::{CoarseBand, DETAIL_BAND};
 use crate::stages::coarse_level::{self, CoarseJob, CoarseLevel};
 use crate::stages::detail_level::{self, DetailPlan, DetailStats};
-use crate::stages::drainage::{breach_depressions, breach_depressions_on_torus, ridge_crests};
+use crate::stages::drainage::breach_under_sketch;
 use crate::stages::editing;
 use crate::stages::erosion::{erode, STEPS as EROSION_STEPS};
 use crate::stages::exemplars::{self, Backend, Fleet, LoadSettings, COARSE_LEVEL};
@@ -355,7 +355,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
     let conditioning = match &form {
         Some(form) => Some(run.run(Stage::Conditioning, |cx| {
             Ok(cx.install(|| {
-                let drainage = breach_depressions(&mut canvas.heights, &ridge_crests(&sk), p);
+                let drainage = breach_under_sketch(&mut canvas.heights, &sk, p, false);
                 let range_change_m = hold_range(&mut canvas.heights, form);
                 Conditioning { drainage, range: form.range, range_change_m, form: form.stats }
             }))
@@ -394,7 +394,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
             }
             // the valleys that drained across the old border now end in the bands:
             // breached again, the gullies cut round the seams (see `drainage`)
-            let drainage = cx.install(|| breach_depressions_on_torus(&mut canvas.heights, &ridge_crests(&sk), p));
+            let drainage = cx.install(|| breach_under_sketch(&mut canvas.heights, &sk, p, true));
             Ok(WrapStats { join, drainage })
         })?),
         false => None,
@@ -405,7 +405,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
             Ok(cx.install(|| {
                 // an edit has no conditioning stage of its own: its depressions are
                 // breached here, before the cells outside it are put back
-                breach_depressions(&mut canvas.heights, &ridge_crests(&sk), p);
+                breach_under_sketch(&mut canvas.heights, &sk, p, false);
                 editing::join(&mut canvas.heights, e)
             }))
         })?),

@@ -29,7 +29,7 @@
 
 use crate::canvas::Canvas;
 use crate::stages::base_surface::{BaseSurface, CoarseBand};
-use crate::stages::drainage::{breach_depressions, ridge_crests};
+use crate::stages::drainage::breach_under_sketch;
 use crate::stages::large_scale::{self, LargeScale, LibraryForm};
 use crate::stages::sketch::{self, SketchFeatures, SketchInput, StrokeSketch};
 
@@ -90,7 +90,7 @@ impl CoarseJob {
     /// (`BaseSurface::coarse_terrain`), with the coarse plan's range and statistics —
     /// and the coarse level itself (its canvas and sketch).
     pub fn finish(mut self, patch: usize, band: CoarseBand) -> (LargeScale, CoarseLevel) {
-        breach_depressions(&mut self.canvas.heights, &ridge_crests(&self.sketch), patch);
+        breach_under_sketch(&mut self.canvas.heights, &self.sketch, patch, false);
         let h = &self.canvas.heights;
         let target = BaseSurface::coarse_terrain(self.factor, h.width, h.height, h.data.clone(), band);
         let level = CoarseLevel { factor: self.factor, patch, canvas: self.canvas, sketch: self.sketch };

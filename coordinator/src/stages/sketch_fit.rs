@@ -37,8 +37,13 @@ use rayon::prelude::*;
 use ridgeline_terrain::feature_extraction::{FeatureGraph, FeatureKind, PerKind};
 use ridgeline_terrain::grid::Heightfield;
 
-/// At most this many passes (each re-measures after the previous deformation).
-pub const PASSES: usize = 3;
+/// At most this many passes (each re-measures after the previous deformation). Where a
+/// line's reach changes from cell to cell (a line ending near it, a dense traced
+/// sketch), a neighbour's wider stamp lifts a cell's side almost as much as its own
+/// lifts the cell, so the deficits close slowly: on a sketch traced from a held-out
+/// DEM's drainage, 3 passes left 0.975 of the ridge cells fitting, 6 passes 0.990.
+/// Passes after the first touch only the cells still short; most jobs stop earlier.
+pub const PASSES: usize = 6;
 
 /// The margin by which a crest must stand out at distance r: this many times the
 /// terrain's median slope (height per cell) times r.

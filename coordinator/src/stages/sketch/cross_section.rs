@@ -30,22 +30,42 @@ impl CrossSection {
     }
 }
 
+/// How far along the line (8-connected steps) the cells that give its direction reach.
+const AXIS_STEPS: usize = 4;
+
 /// The cross-section of `g`'s centre line at cell `p`, reaching `dist` cells or
 /// halfway to the nearest line of `bounds` (at least 2 cells). The line's direction
-/// is the principal axis of its cells within 4 cells of `p`.
+/// is the principal axis of its cells within [`AXIS_STEPS`] steps of `p` along it.
 pub fn cross_section(g: &FeatureGraph, p: u32, dist: f32, bounds: &[&FeatureGraph]) -> CrossSection {
     let (x, y) = g.xy(p);
     let (w, hh) = (g.width, g.height);
-    let (mut sxx, mut sxy, mut syy) = (0f32, 0f32, 0f32);
-    for yy in y.saturating_sub(4)..(y + 5).min(hh) {
-        for xx in x.saturating_sub(4)..(x + 5).min(w) {
-            if g.contains((yy * w + xx) as u32) {
-                let (dx, dy) = (xx as f32 - x as f32, yy as f32 - y as f32);
-                sxx += dx * dx;
-                sxy += dx * dy;
-                syy += dy * dy;
+    // the line's own cells within 4 steps of `p` along it (a breadth-first walk over
+    // its 8-connected cells): a parallel line drawn a few cells away does not tilt the
+    // axis (with every line cell of the 9 x 9 window, two ridges drawn 4 cells apart
+    // gave each a normal along itself)
+    let mut near = vec![(x, y)];
+    let mut k = 0;
+    let mut depth_end = near.len();
+    for _ in 0..AXIS_STEPS {
+        while k < depth_end {
+            let (cx, cy) = near[k];
+            k += 1;
+            for yy in cy.saturating_sub(1)..(cy + 2).min(hh) {
+                for xx in cx.saturating_sub(1)..(cx + 2).min(w) {
+                    if g.contains((yy * w + xx) as u32) && !near.contains(&(xx, yy)) {
+                        near.push((xx, yy));
+                    }
+                }
             }
         }
+        depth_end = near.len();
+    }
+    let (mut sxx, mut sxy, mut syy) = (0f32, 0f32, 0f32);
+    for &(xx, yy) in &near {
+        let (dx, dy) = (xx as f32 - x as f32, yy as f32 - y as f32);
+        sxx += dx * dx;
+        sxy += dx * dy;
+        syy += dy * dy;
     }
     let theta = 0.5 * (2.0 * sxy).atan2(sxx - syy);
     let (nx, ny) = (-theta.sin(), theta.cos());
@@ -63,4 +83,34 @@ pub fn cross_section(g: &FeatureGraph, p: u32, dist: f32, bounds: &[&FeatureGrap
             .map_or(dist, |r| ((r - 1.0) / 2.0).max(2.0))
     };
     CrossSection { x, y, normal: (nx, ny), reach: [reach(1.0), reach(-1.0)] }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two vertical lines `gap` cells apart (x = 30 and 30 + gap, y from 10 to 70).
+    fn parallel(gap: usize) -> FeatureGraph {
+        let mut g = FeatureGraph::empty(80, 80);
+        for x in [30, 30 + gap] {
+            for y in 10..70u32 {
+                g.add_edge(y * 80 + x as u32, (y + 1) * 80 + x as u32);
+            }
+        }
+        g
+    }
+
+    #[test]
+    fn a_line_s_normal_is_across_it_even_beside_a_parallel_line() {
+        for gap in [3, 4, 8] {
+            let g = parallel(gap);
+            let cs = cross_section(&g, 40 * 80 + 30, 16.0, &[&g]);
+            // the normal is across the lines (along x), and the reach stops halfway to
+            // the other line on its side, or at 2 cells
+            assert!(cs.normal.0.abs() > 0.99, "gap {gap}: normal {:?}", cs.normal);
+            let towards = if cs.normal.0 > 0.0 { 0 } else { 1 };
+            assert!(cs.reach[towards] <= (gap as f32 / 2.0).max(2.0), "gap {gap}: {:?}", cs.reach);
+            assert_eq!(cs.reach[1 - towards], 16.0);
+        }
+    }
 }
