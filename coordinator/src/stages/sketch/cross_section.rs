@@ -43,22 +43,27 @@ pub fn cross_section(g: &FeatureGraph, p: u32, dist: f32, bounds: &[&FeatureGrap
     // its 8-connected cells): a parallel line drawn a few cells away does not tilt the
     // axis (with every line cell of the 9 x 9 window, two ridges drawn 4 cells apart
     // gave each a normal along itself)
+    const SIDE: usize = 2 * AXIS_STEPS + 1;
+    // the walk stays within AXIS_STEPS of `p` each way: one flag per cell of that box
+    let mut seen = [false; SIDE * SIDE];
+    let slot = |xx: usize, yy: usize| (yy + AXIS_STEPS - y) * SIDE + (xx + AXIS_STEPS - x);
+    seen[slot(x, y)] = true;
     let mut near = vec![(x, y)];
     let mut k = 0;
-    let mut depth_end = near.len();
     for _ in 0..AXIS_STEPS {
+        let depth_end = near.len();
         while k < depth_end {
             let (cx, cy) = near[k];
             k += 1;
             for yy in cy.saturating_sub(1)..(cy + 2).min(hh) {
                 for xx in cx.saturating_sub(1)..(cx + 2).min(w) {
-                    if g.contains((yy * w + xx) as u32) && !near.contains(&(xx, yy)) {
+                    if !seen[slot(xx, yy)] && g.contains((yy * w + xx) as u32) {
+                        seen[slot(xx, yy)] = true;
                         near.push((xx, yy));
                     }
                 }
             }
         }
-        depth_end = near.len();
     }
     let (mut sxx, mut sxy, mut syy) = (0f32, 0f32, 0f32);
     for &(xx, yy) in &near {
