@@ -1,0 +1,142 @@
+//! Finding what to breach and where: the depressions' pits and depths, and each
+//! one's least-cost way out (Lindsay 2016's breach path, a Dijkstra search whose step
+//! costs the height a cell must lose to lie on a line descending from the pit).
+
+use super::floors::Floors;
+use super::topology::Topology;
+use super::MIN_DEPTH_M;
+use crate::solvers::hydrology::water_levels;
+use crate::solvers::total_order::Total;
+use ridgeline_terrain::grid::Heightfield;
+use rustc_hash::FxHashMap;
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+
+/// Fall of a breach path per cell, metres, so water on it flows.
+pub(super) const FALL_PER_CELL: f32 = 1e-3;
+
+/// How deep the depression holding `pit` is: its spill level (the lowest level at
+/// which water from the pit reaches a lower cell or the border: a priority-flood out
+/// of the pit alone) less the pit's height. A flood that covers more than `max_cells`
+/// without getting out stops there and gives the depth it has found so far (at most
+/// the true depth: the breach's cut is then bounded by less).
+pub(super) fn local_depth(h: &Heightfield, topo: Topology, pit: usize, max_cells: usize) -> f32 {
+    let z = h.data[pit];
+    let mut spill = z;
+    let mut seen: FxHashMap<usize, ()> = FxHashMap::default();
+    seen.insert(pit, ());
+    let mut heap = BinaryHeap::from([Reverse((Total(z), pit))]);
+    while let Some(Reverse((Total(v), c))) = heap.pop() {
+        if c != pit && v < z {
+            return spill - z;
+        }
+        spill = spill.max(v);
+        if topo.is_outlet(c) || seen.len() > max_cells {
+            return spill - z;
+        }
+        for j in topo.neighbours(c) {
+            if h.data[j].is_finite() && seen.insert(j, ()).is_none() {
+                heap.push(Reverse((Total(h.data[j]), j)));
+            }
+        }
+    }
+    spill - z
+}
+
+/// The deepest cell of every depression deeper than [`MIN_DEPTH_M`], as (height, cell,
+/// depth below the depression's spill level), lowest first.
+pub(super) fn pits(h: &Heightfield, topo: Topology) -> Vec<(f32, usize, f32)> {
+    let level = water_levels(h);
+    let (w, hh) = (h.width, h.height);
+    let depth = |i: usize| if h.data[i].is_finite() { level[i] - h.data[i] } else { 0.0 };
+    let mut seen = vec![false; w * hh];
+    let mut out = Vec::new();
+    let mut stack = Vec::new();
+    for s in 0..w * hh {
+        if seen[s] || depth(s) <= 0.0 {
+            continue;
+        }
+        seen[s] = true;
+        stack.push(s);
+        let mut deepest = (depth(s), s);
+        while let Some(c) = stack.pop() {
+            if depth(c) > deepest.0 || (depth(c) == deepest.0 && c < deepest.1) {
+                deepest = (depth(c), c);
+            }
+            for j in topo.neighbours(c) {
+                if !seen[j] && depth(j) > 0.0 {
+                    seen[j] = true;
+                    stack.push(j);
+                }
+            }
+        }
+        if deepest.0 > MIN_DEPTH_M {
+            out.push((h.data[deepest.1], deepest.1, deepest.0));
+        }
+    }
+    out.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    out
+}
+
+/// Whether water at `pit` can already flow on to a lower neighbour, or leaves the
+/// terrain there.
+pub(super) fn has_way_down(h: &Heightfield, topo: Topology, pit: usize) -> bool {
+    topo.is_outlet(pit) || topo.neighbours(pit).any(|j| h.data[j] < h.data[pit])
+}
+
+/// The least-cost path from `pit` to a cell lower than the line falling from it (or to
+/// the border), within `reach` cells of it, never through a cell that may not be cut
+/// (`floor` infinite), never cutting one below its floor or more than `max_cut` below
+/// its height: the cells from the pit to that cell, or `None`.
+pub(super) fn breach_path(
+    h: &Heightfield,
+    topo: Topology,
+    pit: usize,
+    floor: Floors,
+    reach: usize,
+    max_cut: f32,
+) -> Option<Vec<usize>> {
+    let z = h.data[pit];
+    let mut best: FxHashMap<usize, (f32, u32, usize)> = FxHashMap::default();
+    best.insert(pit, (0.0, 0, usize::MAX)); // cost, steps, from
+    let mut heap = BinaryHeap::from([Reverse((Total(0.0), pit))]);
+    while let Some(Reverse((Total(cost), c))) = heap.pop() {
+        let (cc, steps, _) = best[&c];
+        if cost > cc {
+            continue;
+        }
+        let line = z - FALL_PER_CELL * steps as f32;
+        if c != pit && (h.data[c] < line || topo.is_outlet(c)) {
+            let mut path = vec![c];
+            let mut at = c;
+            while let Some(&(_, _, from)) = best.get(&at) {
+                if from == usize::MAX {
+                    break;
+                }
+                path.push(from);
+                at = from;
+            }
+            path.reverse();
+            return Some(path);
+        }
+        for j in topo.neighbours(c) {
+            let (dx, dy) = topo.offset(pit, j);
+            if floor.at(j) == f32::INFINITY || !h.data[j].is_finite() || dx.abs().max(dy.abs()) as usize > reach {
+                continue;
+            }
+            let next_line = z - FALL_PER_CELL * (steps + 1) as f32;
+            let cut = (h.data[j] - next_line).max(0.0);
+            if cut > max_cut || (cut > 0.0 && next_line < floor.at(j)) {
+                continue;
+            }
+            // the height the cell must lose, and a little per step so shorter paths win ties
+            let step = cut + 1e-3;
+            let nc = cost + step;
+            if best.get(&j).is_none_or(|&(old, _, _)| nc < old) {
+                best.insert(j, (nc, steps + 1, c));
+                heap.push(Reverse((Total(nc), j)));
+            }
+        }
+    }
+    None
+}

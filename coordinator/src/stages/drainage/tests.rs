@@ -1,0 +1,177 @@
+//! Breaching: known answers on small made-up terrains.
+
+use super::search::{local_depth, pits};
+use super::topology::Topology;
+use super::*;
+use crate::solvers::hydrology::{drainage_shares, water_levels};
+use ridgeline_terrain::grid::Grid;
+
+/// A valley falling to the left border, dammed by a 30 m bar at x = 50.
+fn dammed() -> Heightfield {
+    let (w, h) = (120usize, 60usize);
+    Grid::from_vec(
+        w,
+        h,
+        (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as f32, (i / w) as f32);
+                let valley = 200.0 + 0.8 * x + 4.0 * (y - 30.0).abs();
+                let dam = if (x - 50.0).abs() < 2.0 { 30.0 } else { 0.0 };
+                valley + dam
+            })
+            .collect(),
+    )
+}
+
+#[test]
+fn a_dammed_valley_is_breached_through_the_dam_with_few_cells() {
+    let mut h = dammed();
+    let before = h.clone();
+    assert!(drainage_shares(&h, 5.0).sink_share > 0.01, "the dam holds a lake");
+    let keep = vec![f32::NEG_INFINITY; h.data.len()];
+    let s = breach_depressions(&mut h, &keep, 32);
+    assert_eq!((s.depressions, s.left), (1, 0), "{s:?}");
+    assert!(s.breached >= 1 && s.cells_lowered <= 150, "a short gully through the 3-cell dam, 2% of the cells: {s:?}");
+    assert_eq!(drainage_shares(&h, MIN_DEPTH_M).sink_share, 0.0, "nothing closed is left");
+    // only lowered, and only near the dam
+    for (i, (a, b)) in h.data.iter().zip(&before.data).enumerate() {
+        assert!(a <= b);
+        if a < b {
+            assert!(((i % 120) as i64 - 50).abs() <= 3 + GULLY_RADIUS as i64, "cell {} lowered", i % 120);
+        }
+    }
+}
+
+#[test]
+fn a_basin_closed_by_a_kept_ring_stays_closed() {
+    let mut h = dammed();
+    // the dam is a sketched ridge crest
+    let keep: Vec<f32> =
+        (0..h.data.len()).map(|i| if ((i % 120) as i64 - 50).abs() < 2 { f32::INFINITY } else { f32::NEG_INFINITY }).collect();
+    let before = h.clone();
+    let s = breach_depressions(&mut h, &keep, 32);
+    assert_eq!((s.breached, s.left), (0, 1), "{s:?}");
+    assert_eq!(h.data, before.data);
+}
+
+#[test]
+fn a_valley_s_checked_sides_are_held_above_its_floor_and_its_line_is_not() {
+    use crate::stages::sketch::analyse;
+    // a valley stroke along y = 60 and a ridge stroke along y = 20 on a V falling to
+    // the valley
+    let (w, hh) = (160usize, 120usize);
+    let mut s = Grid::new(w, hh, 128u8);
+    for x in 10..150 {
+        for dy in 0..3 {
+            s.set(x, 59 + dy, 0);
+            s.set(x, 19 + dy, 255);
+        }
+    }
+    let sk = analyse(&s, 64);
+    let h: Heightfield = Grid::from_vec(
+        w,
+        hh,
+        (0..w * hh).map(|i| 1000.0 + 3.0 * ((i / w) as f32 - 60.0).abs() + 0.05 * (i % w) as f32).collect(),
+    );
+    let floor = sketch_floors(&sk, &h, 64);
+    let at = |x: usize, y: usize| floor[y * w + x];
+    for x in 50..110 {
+        let valley = h.get(x, 60);
+        // the line and the cells beside it may be cut as deep as drainage needs
+        assert!((59..62).all(|y| at(x, y) == f32::NEG_INFINITY), "x {x}");
+        // where its cross-section is checked (16 and 32 cells below; above, halfway
+        // to the ridge), no lower than the valley's floor there
+        for y in [76, 92] {
+            assert!((at(x, y) - valley).abs() < 1.0 && at(x, y) > valley, "({x}, {y}): {} vs {valley}", at(x, y));
+        }
+        // the ridge's crest is never cut; cells checked by nothing are free
+        assert_eq!(at(x, 20), f32::INFINITY);
+        assert_eq!(at(x, 110), f32::NEG_INFINITY);
+    }
+}
+
+#[test]
+fn a_breach_keeps_to_the_floors_where_it_can_and_drains_where_it_cannot() {
+    let before = dammed();
+    let n = before.data.len();
+    // a floor 10 m below the dam's top across the valley at the dam: the only way
+    // out is through it, so the breach goes through anyway (draining first)
+    let mut floor = vec![f32::NEG_INFINITY; n];
+    for y in 0..60 {
+        let i = y * 120 + 50;
+        floor[i] = before.data[i] - 10.0;
+    }
+    let mut h = before.clone();
+    let s = breach_depressions(&mut h, &floor, 32);
+    assert_eq!(s.left, 0, "{s:?}");
+    assert_eq!(drainage_shares(&h, MIN_DEPTH_M).sink_share, 0.0);
+    // floors a metre below the dam's surface beside the valley's floor (4 to 7
+    // cells off it, where the gully's walls would cut metres): held, the gully
+    // narrower there (no narrower than GULLY_RADIUS)
+    let mut floor = vec![f32::NEG_INFINITY; n];
+    for x in 46..55 {
+        for y in (23..27).chain(34..38) {
+            floor[y * 120 + x] = before.data[y * 120 + x] - 1.0;
+        }
+    }
+    let (mut h, mut free) = (before.clone(), before.clone());
+    let s = breach_depressions(&mut h, &floor, 32);
+    breach_depressions(&mut free, &vec![f32::NEG_INFINITY; n], 32);
+    assert_eq!((s.breached, s.left), (1, 0), "{s:?}");
+    assert!(free.data.iter().zip(&floor).any(|(v, f)| v < f), "the floors bind");
+    assert!(h.data.iter().zip(&floor).all(|(v, f)| v >= f), "a cell cut below its floor");
+    assert_eq!(drainage_shares(&h, MIN_DEPTH_M).sink_share, 0.0);
+}
+
+/// A plain at 500 m with a 20 m deep bowl three cells from the left border.
+fn bowl_beside_the_seam() -> Heightfield {
+    let (w, h) = (120usize, 60usize);
+    Grid::from_vec(
+        w,
+        h,
+        (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as f32 - 3.0, (i / w) as f32 - 30.0);
+                500.0 - 20.0 * (1.0 - (x * x + y * y) / 4.0).max(0.0)
+            })
+            .collect(),
+    )
+}
+
+#[test]
+fn on_a_torus_the_gully_to_the_seam_is_cut_on_both_sides_of_it() {
+    let before = bowl_beside_the_seam();
+    let keep = vec![f32::NEG_INFINITY; before.data.len()];
+    let seam_jump = |h: &Heightfield| (0..60).map(|y| (h.get(0, y) - h.get(119, y)).abs()).fold(0f32, f32::max);
+    let (mut plain, mut torus) = (before.clone(), before.clone());
+    let sp = breach_depressions(&mut plain, &keep, 16);
+    let st = breach_depressions_on_torus(&mut torus, &keep, 16);
+    for (h, s) in [(&plain, sp), (&torus, st)] {
+        assert_eq!((s.depressions, s.breached, s.left), (1, 1, 0), "{s:?}");
+        assert_eq!(drainage_shares(h, MIN_DEPTH_M).sink_share, 0.0, "the bowl drains over the border");
+    }
+    // the torus's cut goes on round the seam, so the tile stays periodic; the
+    // rectangle's stops at the border
+    let lowered = |h: &Heightfield, x: usize| (0..60).any(|y| h.get(x, y) < before.get(x, y));
+    assert!(lowered(&torus, 119) && lowered(&torus, 116) && !lowered(&plain, 119));
+    assert!(seam_jump(&plain) > 5.0, "{}", seam_jump(&plain));
+    assert!(seam_jump(&torus) < 0.25 * seam_jump(&plain), "{} vs {}", seam_jump(&torus), seam_jump(&plain));
+    // and only near the bowl, measured round the seam
+    for (i, (a, b)) in torus.data.iter().zip(&before.data).enumerate() {
+        let x = (i % 120) as i64;
+        assert!(a <= b && (a == b || (x - 3).rem_euclid(120).min((3 - x).rem_euclid(120)) <= 4 + MAX_GULLY_RADIUS as i64));
+    }
+}
+
+#[test]
+fn a_pit_s_own_flood_finds_its_depth() {
+    let h = dammed();
+    let level = water_levels(&h);
+    let topo = Topology::plain(&h);
+    let (_, pit, depth) = pits(&h, topo)[0];
+    assert!((local_depth(&h, topo, pit, 1 << 20) - depth).abs() < 1e-3, "the dam's lake: {depth} m");
+    assert!((level[pit] - h.data[pit] - depth).abs() < 1e-3);
+    // a flood stopped early has found at most the depth
+    let short = local_depth(&h, topo, pit, 20);
+    assert!(short <= depth + 1e-3 && short >= 0.0, "{short} vs {depth}");
+}

@@ -1,0 +1,53 @@
+//! The grid a breach runs on: a rectangle, or a torus for a tileable terrain.
+
+use crate::solvers::hydrology::D8;
+use ridgeline_terrain::grid::Heightfield;
+
+/// The grid a breach runs on: a rectangle, or a torus (see
+/// [`breach_depressions_on_torus`]); water leaves at the border of either.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Topology {
+    pub(super) w: usize,
+    pub(super) h: usize,
+    /// Whether the grid wraps round.
+    pub(super) wrap: bool,
+}
+
+impl Topology {
+    pub(super) fn plain(h: &Heightfield) -> Topology {
+        Topology { w: h.width, h: h.height, wrap: false }
+    }
+
+    /// Whether water leaves the terrain at `c`.
+    pub(super) fn is_outlet(self, c: usize) -> bool {
+        let (x, y) = (c % self.w, c / self.w);
+        x == 0 || y == 0 || x + 1 == self.w || y + 1 == self.h
+    }
+
+    /// The cell (x, y), taken round the seams on a torus, if the grid has it.
+    pub(super) fn at(self, x: i64, y: i64) -> Option<usize> {
+        let (w, h) = (self.w as i64, self.h as i64);
+        match self.wrap {
+            true => Some((y.rem_euclid(h) * w + x.rem_euclid(w)) as usize),
+            false => (x >= 0 && y >= 0 && x < w && y < h).then(|| (y * w + x) as usize),
+        }
+    }
+
+    pub(super) fn neighbours(self, c: usize) -> impl Iterator<Item = usize> {
+        let (x, y) = ((c % self.w) as i64, (c / self.w) as i64);
+        D8.iter().filter_map(move |&(dx, dy)| self.at(x + dx, y + dy))
+    }
+
+    /// The offset from `a` to `b`, the shorter way round on a torus.
+    pub(super) fn offset(self, a: usize, b: usize) -> (i64, i64) {
+        let d = |from: usize, to: usize, n: usize| {
+            let d = to as i64 - from as i64;
+            if self.wrap && 2 * d.abs() > n as i64 {
+                d - d.signum() * n as i64
+            } else {
+                d
+            }
+        };
+        (d(a % self.w, b % self.w, self.w), d(a / self.w, b / self.w, self.h))
+    }
+}
