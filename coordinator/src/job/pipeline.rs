@@ -8,8 +8,9 @@
 //! 3. [`large_scale::plan`] — the large-scale target from the strokes (ridges high,
 //!    valleys low towards their outlets), which every patch is merged on; on a large
 //!    output the whole synthesis (stages 3 to 8) runs first at a coarser level
-//!    ([`coarse_level`]) on that target, and the coarse terrain becomes the surface
-//!    the output level's patches are merged on; on an output whose cells are finer
+//!    ([`coarse_level`]) on that target, and the coarse terrain, held to the target
+//!    above a few patches ([`large_scale::anchor`]), becomes the surface the output
+//!    level's patches are merged on; on an output whose cells are finer
 //!    than its exemplars', that coarser level is at their cell size and the output
 //!    level is made from fine sources only, or from a generator made for the job
 //!    ([`detail_level`]);
@@ -200,6 +201,9 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
                 let on_fill = |left: u64, _: &Canvas| cx.progress(empty - left, empty);
                 let fill = FillSettings { level, seed: set.seed, base: Some(&c.form.target) };
                 fill_holes(&mut c.canvas, first_shards, &fill, cx.pool, &on_fill, cx.cancel)?;
+                // the fills' levels walk away from the target across the canvas: held to
+                // it above a few patches (see `large_scale::anchor`)
+                c.form.stats.held_to_target_m = cx.install(|| large_scale::anchor(&mut c.canvas.heights, &c.form.target, cp));
                 if set.fit_sketch {
                     cx.install(|| fit_to_sketch(&mut c.canvas.heights, &c.sketch, cp));
                 }
@@ -356,7 +360,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
         Some(form) => Some(run.run(Stage::Conditioning, |cx| {
             Ok(cx.install(|| {
                 let drainage = breach_under_sketch(&mut canvas.heights, &sk, p, false);
-                let range_change_m = hold_range(&mut canvas.heights, form);
+                let range_change_m = hold_range(&mut canvas.heights, form.range, form.stretch);
                 Conditioning { drainage, range: form.range, range_change_m, form: form.stats }
             }))
         })?),

@@ -2,7 +2,8 @@
 //! pyramid; seed 003's coarse-to-fine solve): on a large output, the whole job is
 //! first run at a coarser level — the sketch and the exemplars downsampled by
 //! [`FACTOR`], the same stages (large-scale target, feature placement, hole filling,
-//! sketch fit, breaching) on a canvas [`FACTOR`] times smaller each way — and the
+//! sketch fit, breaching) on a canvas [`FACTOR`] times smaller each way, the filled
+//! terrain held to the target above a few patches (`large_scale::anchor`) — and the
 //! coarse terrain then becomes the surface every patch of the output level is merged
 //! on (`BaseSurface::coarse_terrain`): each patch keeps only its detail below a
 //! Gaussian of σ = `DETAIL_BAND` coarse cells, the coarse terrain under the same blur

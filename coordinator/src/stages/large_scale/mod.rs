@@ -45,6 +45,9 @@ use ridgeline_terrain::shard::SourceInfo;
 use ridgeline_terrain::{FeatureKind, PerKind};
 use std::collections::VecDeque;
 
+mod hold;
+pub use hold::{anchor, hold_range, ANCHOR_SIGMA_PATCHES};
+
 /// A stroke of width `w` shapes a landform of about this many times `w` across.
 pub const SCALE_PER_WIDTH: f32 = 12.0;
 
@@ -117,6 +120,9 @@ pub struct FormStats {
     /// The base level and the range held, metres.
     pub base_level: f32,
     pub range: [f32; 2],
+    /// On a coarse level, the largest change that held its terrain to the target above
+    /// a few patches ([`anchor`]), metres; 0 on a single level.
+    pub held_to_target_m: f32,
 }
 
 /// What a stroke asks of one centre-line cell: the landform scale and, if it carries
@@ -441,32 +447,6 @@ impl<'a> SegmentIndex<'a> {
     }
 }
 
-/// Holds the finished terrain within the form's range: stretched to fill it (a range
-/// asked for without stroke elevations), else, where it overshoots, mapped affinely
-/// onto the part of the range it reached (an end beyond the range pulled to the
-/// range's end, the other end kept). One factor for every slope: a saturating squash of
-/// the cells beyond the range's outer tenths, as this first did, pressed whole regions
-/// that had drifted far below into plains (3.8% flat landforms on a 4096² job against
-/// the sources' 0.36%). Returns the largest change, metres.
-pub fn hold_range(h: &mut Heightfield, form: &LargeScale) -> f32 {
-    let Some((min, max)) = h.finite_range() else { return 0.0 };
-    let [lo, hi] = form.range;
-    if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) {
-        return 0.0;
-    }
-    // an affine map moves each cell by at most the larger of its ends' moves
-    let (to_lo, to_hi) = if form.stretch && max > min {
-        (lo, hi)
-    } else if min < lo || max > hi {
-        (min.max(lo), max.min(hi))
-    } else {
-        return 0.0;
-    };
-    let k = if max > min { (to_hi - to_lo) / (max - min) } else { 0.0 };
-    h.data.iter_mut().for_each(|v| *v = (to_lo + (*v - min) * k).clamp(to_lo, to_hi));
-    (to_lo - min).abs().max((to_hi - max).abs())
-}
-
 /// The target over the whole output, for the debug view.
 pub fn target_heights(form: &LargeScale, canvas: &Canvas) -> Heightfield {
     let (w, h) = canvas.full_size();
@@ -479,13 +459,13 @@ mod tests {
     use crate::stages::sketch::analyse;
     use ridgeline_terrain::grid::Grid;
 
-    fn library() -> LibraryForm {
+    pub(super) fn library() -> LibraryForm {
         LibraryForm { lo: 0.0, hi: 4000.0, base: 1500.0, relief: vec![(16, 200.0), (64, 600.0), (256, 1500.0)] }
     }
 
     /// A 3-cell ridge stroke at y = 60 and a valley at y = 130 from x = 20 to 230, and
     /// a 15-cell ridge at y = 200.
-    fn sketch() -> Grid<u8> {
+    pub(super) fn sketch() -> Grid<u8> {
         let mut s = Grid::new(256, 256, 128u8);
         for x in 20..230 {
             for d in 0..3 {
@@ -555,29 +535,5 @@ mod tests {
         let f = plan(&sk, &library(), 32, None);
         // the B-spline over the grid rounds a line's crest by a few per cent
         assert!((f.target.at(100, 100) - 3000.0).abs() < 150.0, "{}", f.target.at(100, 100));
-    }
-
-    #[test]
-    fn the_range_is_held_by_one_factor_or_filled_when_asked() {
-        let sk = analyse(&sketch(), 32);
-        let mut f = plan(&sk, &library(), 32, None);
-        let mut h = Grid::from_vec(100, 1, (0..100).map(|i| -500.0 + 60.0 * i as f32).collect());
-        hold_range(&mut h, &f);
-        let (lo, hi) = h.finite_range().unwrap();
-        assert!(lo >= 0.0 && hi <= 4000.0, "{lo}..{hi}");
-        assert!(lo.abs() < 1e-3 && (hi - 4000.0).abs() < 1e-2, "the overshooting ends pulled to the range's: {lo}..{hi}");
-        // every step scaled by one factor: no part of the slope is flattened
-        let steps: Vec<f32> = h.data.windows(2).map(|w| w[1] - w[0]).collect();
-        assert!(steps.iter().all(|d| (d - steps[0]).abs() < 1e-3 && *d > 0.0), "{steps:?}");
-        // only one end beyond: the other stays where it was
-        let mut h = Grid::from_vec(50, 1, (0..50).map(|i| 1000.0 + 100.0 * i as f32).collect());
-        hold_range(&mut h, &f);
-        assert_eq!(h.data[0], 1000.0);
-        assert!((h.data[49] - 4000.0).abs() < 1e-2);
-        f.range = [100.0, 900.0];
-        f.stretch = true;
-        let mut h = Grid::from_vec(3, 1, vec![5.0, 10.0, 25.0]);
-        hold_range(&mut h, &f);
-        assert_eq!(h.data, vec![100.0, 300.0, 900.0]);
     }
 }
