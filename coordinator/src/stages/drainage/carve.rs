@@ -5,6 +5,7 @@
 use super::floors::Floors;
 use super::search::FALL_PER_CELL;
 use super::topology::Topology;
+use super::BIG_CUT_M;
 use ridgeline_terrain::grid::Heightfield;
 
 /// The narrowest half-width of a breach gully beside its path, cells.
@@ -86,8 +87,9 @@ pub(super) fn held_radius(h: &Heightfield, topo: Topology, floor: Floors, at: (i
 /// subtracted, so the terrain's own relief stays on the gully's floor and walls: a
 /// valley through the sill, not a trench with a smooth floor. A crest (`floor`
 /// infinite) is never lowered; near a held floor the gully narrows
-/// ([`held_radius`]). Returns the cells lowered and the deepest cut.
-pub(super) fn carve(h: &mut Heightfield, topo: Topology, path: &[usize], floor: Floors, wall: f32) -> (usize, f32) {
+/// ([`held_radius`]). Returns the cells lowered, those lowered by more than
+/// [`BIG_CUT_M`], and the deepest cut.
+pub(super) fn carve(h: &mut Heightfield, topo: Topology, path: &[usize], floor: Floors, wall: f32) -> (usize, usize, f32) {
     let (w, hh) = (h.width, h.height);
     let torus = topo.wrap;
     let (z, end) = (h.data[path[0]], h.data[path[path.len() - 1]]);
@@ -117,7 +119,7 @@ pub(super) fn carve(h: &mut Heightfield, topo: Topology, path: &[usize], floor: 
         })
         .collect();
     if drops.is_empty() {
-        return (0, 0.0);
+        return (0, 0, 0.0);
     }
     // the cut over the bounding box of the path and its gullies (clipped to the grid
     // on a rectangle)
@@ -158,13 +160,14 @@ pub(super) fn carve(h: &mut Heightfield, topo: Topology, path: &[usize], floor: 
         by_cell.sort_by(|a, b| a.0.cmp(&b.0).then(b.1.total_cmp(&a.1)));
         by_cell.dedup_by_key(|e| e.0);
     }
-    let (mut lowered, mut deepest) = (0, 0f32);
+    let (mut lowered, mut big, mut deepest) = (0, 0, 0f32);
     for (j, d) in by_cell {
         if h.data[j].is_finite() {
             deepest = deepest.max(d);
             h.data[j] -= d;
             lowered += 1;
+            big += usize::from(d > BIG_CUT_M);
         }
     }
-    (lowered, deepest)
+    (lowered, big, deepest)
 }

@@ -64,6 +64,9 @@ pub const SEARCH_PATCHES: usize = 3;
 /// may lead.
 pub const FAR_SEARCH_PATCHES: usize = 32;
 
+/// A cut deeper than this (metres) is counted apart in [`DrainageStats`].
+pub const BIG_CUT_M: f32 = 10.0;
+
 /// A breach may cut a cell at most this many times the depression's depth (plus a
 /// metre).
 pub const CUT_PER_DEPTH: f32 = 1.5;
@@ -80,6 +83,9 @@ pub struct DrainageStats {
     pub breached: usize,
     pub cells_lowered: usize,
     pub max_cut_m: f32,
+    /// Of the cells lowered, those cut by more than [`BIG_CUT_M`]: how much of the
+    /// breach's work is more than a trim.
+    pub cells_lowered_over_10m: usize,
     /// Depressions left: closed by a sketched ridge, or with no way down near enough.
     pub left: usize,
 }
@@ -144,8 +150,9 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floor: &[f32], patch: usize) -
             });
             match path {
                 Some((path, floor)) => {
-                    let (lowered, cut) = carve(h, topo, &path, floor, wall);
+                    let (lowered, big, cut) = carve(h, topo, &path, floor, wall);
                     stats.cells_lowered += lowered;
+                    stats.cells_lowered_over_10m += big;
                     stats.max_cut_m = stats.max_cut_m.max(cut);
                     breached += 1;
                 }

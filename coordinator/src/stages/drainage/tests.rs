@@ -32,6 +32,8 @@ fn a_dammed_valley_is_breached_through_the_dam_with_few_cells() {
     let s = breach_depressions(&mut h, &keep, 32);
     assert_eq!((s.depressions, s.left), (1, 0), "{s:?}");
     assert!(s.breached >= 1 && s.cells_lowered <= 150, "a short gully through the 3-cell dam, 2% of the cells: {s:?}");
+    // the 30 m dam is cut by more than 10 m at its crest, its gully's flanks by less
+    assert!(s.cells_lowered_over_10m > 0 && s.cells_lowered_over_10m < s.cells_lowered, "{s:?}");
     assert_eq!(drainage_shares(&h, MIN_DEPTH_M).sink_share, 0.0, "nothing closed is left");
     // only lowered, and only near the dam
     for (i, (a, b)) in h.data.iter().zip(&before.data).enumerate() {
