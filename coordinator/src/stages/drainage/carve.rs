@@ -5,8 +5,10 @@
 use super::floors::Floors;
 use super::search::FALL_PER_CELL;
 use super::topology::Topology;
-use super::BIG_CUT_M;
 use ridgeline_terrain::grid::Heightfield;
+
+/// A cut deeper than this (metres) is counted apart in `DrainageStats`.
+pub const BIG_CUT_M: f32 = 10.0;
 
 /// The narrowest half-width of a breach gully beside its path, cells.
 pub const GULLY_RADIUS: usize = 3;

@@ -40,22 +40,17 @@
 mod carve;
 mod floors;
 mod search;
-#[cfg(test)]
-mod tests;
 mod topology;
 
 use crate::stages::sketch::SketchFeatures;
 use carve::{carve, wall_slope};
-pub use carve::{GULLY_RADIUS, MAX_GULLY_RADIUS, WALL_PER_MEDIAN_SLOPE};
+pub use carve::{BIG_CUT_M, GULLY_RADIUS, MAX_GULLY_RADIUS, WALL_PER_MEDIAN_SLOPE};
 pub use floors::sketch_floors;
 use floors::Floors;
 use ridgeline_terrain::grid::Heightfield;
+pub use search::MIN_DEPTH_M;
 use search::{breach_path, has_way_down, local_depth, pits};
 use topology::Topology;
-
-/// Depressions shallower than this (metres) are left alone: within the noise of a
-/// DEM, and too shallow to hold water that matters.
-pub const MIN_DEPTH_M: f32 = 2.0;
 
 /// How far (in patches) a breach path may lead from its pit.
 pub const SEARCH_PATCHES: usize = 3;
@@ -63,9 +58,6 @@ pub const SEARCH_PATCHES: usize = 3;
 /// How far (in patches) the second search for a depression with no near way out
 /// may lead.
 pub const FAR_SEARCH_PATCHES: usize = 32;
-
-/// A cut deeper than this (metres) is counted apart in [`DrainageStats`].
-pub const BIG_CUT_M: f32 = 10.0;
 
 /// A breach may cut a cell at most this many times the depression's depth (plus a
 /// metre).
@@ -173,3 +165,6 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floor: &[f32], patch: usize) -
     tracing::info!(?stats, "depressions breached");
     stats
 }
+
+#[cfg(test)]
+mod tests;

@@ -4,13 +4,16 @@
 
 use super::floors::Floors;
 use super::topology::Topology;
-use super::MIN_DEPTH_M;
 use crate::solvers::hydrology::water_levels;
 use crate::solvers::total_order::Total;
 use ridgeline_terrain::grid::Heightfield;
 use rustc_hash::FxHashMap;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
+
+/// Depressions shallower than this (metres) are left alone: within the noise of a
+/// DEM, and too shallow to hold water that matters.
+pub const MIN_DEPTH_M: f32 = 2.0;
 
 /// Fall of a breach path per cell, metres, so water on it flows.
 pub(super) const FALL_PER_CELL: f32 = 1e-3;
