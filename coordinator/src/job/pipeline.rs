@@ -68,7 +68,7 @@ use crate::progress::Stage;
 use crate::stages::base_surface::{CoarseBand, DETAIL_BAND};
 use crate::stages::coarse_level::{self, CoarseJob, CoarseLevel};
 use crate::stages::detail_level::{self, DetailPlan, DetailStats};
-use crate::stages::drainage::breach_under_sketch;
+use crate::stages::drainage::{breach_under_sketch, Hybrid};
 use crate::stages::editing;
 use crate::stages::erosion::{erode, STEPS as EROSION_STEPS};
 use crate::stages::exemplars::{self, Backend, Fleet, LoadSettings, COARSE_LEVEL};
@@ -359,7 +359,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
     let conditioning = match &form {
         Some(form) => Some(run.run(Stage::Conditioning, |cx| {
             Ok(cx.install(|| {
-                let drainage = breach_under_sketch(&mut canvas.heights, &sk, p, false);
+                let drainage = breach_under_sketch(&mut canvas.heights, &sk, p, false, Hybrid::FillThenBreach);
                 let range_change_m = hold_range(&mut canvas.heights, form.range, form.stretch);
                 Conditioning { drainage, range: form.range, range_change_m, form: form.stats }
             }))
@@ -398,7 +398,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
             }
             // the valleys that drained across the old border now end in the bands:
             // breached again, the gullies cut round the seams (see `drainage`)
-            let drainage = cx.install(|| breach_under_sketch(&mut canvas.heights, &sk, p, true));
+            let drainage = cx.install(|| breach_under_sketch(&mut canvas.heights, &sk, p, true, Hybrid::FillThenBreach));
             Ok(WrapStats { join, drainage })
         })?),
         false => None,
@@ -409,7 +409,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
             Ok(cx.install(|| {
                 // an edit has no conditioning stage of its own: its depressions are
                 // breached here, before the cells outside it are put back
-                breach_under_sketch(&mut canvas.heights, &sk, p, false);
+                breach_under_sketch(&mut canvas.heights, &sk, p, false, Hybrid::FillThenBreach);
                 editing::join(&mut canvas.heights, e)
             }))
         })?),

@@ -30,7 +30,7 @@
 
 use crate::canvas::Canvas;
 use crate::stages::base_surface::{BaseSurface, CoarseBand};
-use crate::stages::drainage::breach_under_sketch;
+use crate::stages::drainage::{breach_under_sketch, Hybrid};
 use crate::stages::large_scale::{self, LargeScale, LibraryForm};
 use crate::stages::sketch::{self, SketchFeatures, SketchInput, StrokeSketch};
 
@@ -91,7 +91,7 @@ impl CoarseJob {
     /// (`BaseSurface::coarse_terrain`), with the coarse plan's range and statistics —
     /// and the coarse level itself (its canvas and sketch).
     pub fn finish(mut self, patch: usize, band: CoarseBand) -> (LargeScale, CoarseLevel) {
-        breach_under_sketch(&mut self.canvas.heights, &self.sketch, patch, false);
+        breach_under_sketch(&mut self.canvas.heights, &self.sketch, patch, false, Hybrid::BreachOnly);
         let h = &self.canvas.heights;
         let target = BaseSurface::coarse_terrain(self.factor, h.width, h.height, h.data.clone(), band);
         let level = CoarseLevel { factor: self.factor, patch, canvas: self.canvas, sketch: self.sketch };

@@ -29,19 +29,40 @@ fn a_dammed_valley_is_breached_through_the_dam_with_few_cells() {
     let before = h.clone();
     assert!(drainage_shares(&h, 5.0).sink_share > 0.01, "the dam holds a lake");
     let keep = vec![f32::NEG_INFINITY; h.data.len()];
-    let s = breach_depressions(&mut h, &keep, 32);
+    let s = breach_depressions(&mut h, &keep, 32, Hybrid::FillThenBreach);
     assert_eq!((s.depressions, s.left), (1, 0), "{s:?}");
     assert!(s.breached >= 1 && s.cells_lowered <= 150, "a short gully through the 3-cell dam, 2% of the cells: {s:?}");
     // the 30 m dam is cut by more than 10 m at its crest, its gully's flanks by less
     assert!(s.cells_lowered_over_10m > 0 && s.cells_lowered_over_10m < s.cells_lowered, "{s:?}");
     assert_eq!(drainage_shares(&h, MIN_DEPTH_M).sink_share, 0.0, "nothing closed is left");
-    // only lowered, and only near the dam
+    // lowered only near the dam (the gully starts from the lake's filled bottom, at
+    // most the fill's side upstream of the pit beside the dam); raised only that
+    // bottom, a few cells by less than the lake is deep
+    let mut raised = 0;
+    let side = (fill_cells(32) as f64).sqrt() as i64;
     for (i, (a, b)) in h.data.iter().zip(&before.data).enumerate() {
-        assert!(a <= b);
         if a < b {
-            assert!(((i % 120) as i64 - 50).abs() <= 3 + GULLY_RADIUS as i64, "cell {} lowered", i % 120);
+            assert!(((i % 120) as i64 - 50).abs() <= 3 + side + GULLY_RADIUS as i64, "cell {} lowered", i % 120);
+        }
+        if a > b {
+            assert!(a - b < 30.0, "cell {i} raised by {}", a - b);
+            raised += 1;
         }
     }
+    // (a raised cell the gully then crosses may end lower)
+    assert!(raised <= s.cells_raised && s.cells_raised <= fill_cells(32), "{raised} cells raised: {s:?}");
+}
+
+#[test]
+fn breaching_only_lowers_and_fills_no_bottom() {
+    // a coarse level's conditioning: the same dam breached from the lake's pit
+    let mut h = dammed();
+    let before = h.clone();
+    let keep = vec![f32::NEG_INFINITY; h.data.len()];
+    let s = breach_depressions(&mut h, &keep, 32, Hybrid::BreachOnly);
+    assert_eq!((s.left, s.bottoms_filled, s.cells_raised), (0, 0, 0), "{s:?}");
+    assert!(h.data.iter().zip(&before.data).all(|(a, b)| a <= b));
+    assert_eq!(drainage_shares(&h, MIN_DEPTH_M).sink_share, 0.0);
 }
 
 #[test]
@@ -51,7 +72,7 @@ fn a_basin_closed_by_a_kept_ring_stays_closed() {
     let keep: Vec<f32> =
         (0..h.data.len()).map(|i| if ((i % 120) as i64 - 50).abs() < 2 { f32::INFINITY } else { f32::NEG_INFINITY }).collect();
     let before = h.clone();
-    let s = breach_depressions(&mut h, &keep, 32);
+    let s = breach_depressions(&mut h, &keep, 32, Hybrid::FillThenBreach);
     assert_eq!((s.breached, s.left), (0, 1), "{s:?}");
     assert_eq!(h.data, before.data);
 }
@@ -104,7 +125,7 @@ fn a_breach_keeps_to_the_floors_where_it_can_and_drains_where_it_cannot() {
         floor[i] = before.data[i] - 10.0;
     }
     let mut h = before.clone();
-    let s = breach_depressions(&mut h, &floor, 32);
+    let s = breach_depressions(&mut h, &floor, 32, Hybrid::FillThenBreach);
     assert_eq!(s.left, 0, "{s:?}");
     assert_eq!(drainage_shares(&h, MIN_DEPTH_M).sink_share, 0.0);
     // floors a metre below the dam's surface beside the valley's floor (4 to 7
@@ -117,8 +138,8 @@ fn a_breach_keeps_to_the_floors_where_it_can_and_drains_where_it_cannot() {
         }
     }
     let (mut h, mut free) = (before.clone(), before.clone());
-    let s = breach_depressions(&mut h, &floor, 32);
-    breach_depressions(&mut free, &vec![f32::NEG_INFINITY; n], 32);
+    let s = breach_depressions(&mut h, &floor, 32, Hybrid::FillThenBreach);
+    breach_depressions(&mut free, &vec![f32::NEG_INFINITY; n], 32, Hybrid::FillThenBreach);
     assert_eq!((s.breached, s.left), (1, 0), "{s:?}");
     assert!(free.data.iter().zip(&floor).any(|(v, f)| v < f), "the floors bind");
     assert!(h.data.iter().zip(&floor).all(|(v, f)| v >= f), "a cell cut below its floor");
@@ -146,8 +167,8 @@ fn on_a_torus_the_gully_to_the_seam_is_cut_on_both_sides_of_it() {
     let keep = vec![f32::NEG_INFINITY; before.data.len()];
     let seam_jump = |h: &Heightfield| (0..60).map(|y| (h.get(0, y) - h.get(119, y)).abs()).fold(0f32, f32::max);
     let (mut plain, mut torus) = (before.clone(), before.clone());
-    let sp = breach_depressions(&mut plain, &keep, 16);
-    let st = breach_depressions_on_torus(&mut torus, &keep, 16);
+    let sp = breach_depressions(&mut plain, &keep, 16, Hybrid::FillThenBreach);
+    let st = breach_depressions_on_torus(&mut torus, &keep, 16, Hybrid::FillThenBreach);
     for (h, s) in [(&plain, sp), (&torus, st)] {
         assert_eq!((s.depressions, s.breached, s.left), (1, 1, 0), "{s:?}");
         assert_eq!(drainage_shares(h, MIN_DEPTH_M).sink_share, 0.0, "the bowl drains over the border");
