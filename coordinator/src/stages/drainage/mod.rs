@@ -16,8 +16,8 @@
 //! narrower. (A bottom whose fill spills into a lower part of the same depression, or
 //! from which no way out is found, is put back and breached from its pit as before; a
 //! coarse level breaches only, see [`Hybrid`].) On the six 1024² sketch–library pairs
-//! of issue 25 (seed 3) this raised 1,660 to 7,929 cells (under 1%), cut 40–45% fewer
-//! breach paths (mixed-1024: 2,165 to 1,297) and lowered 17–21% fewer cells; the
+//! of issue 25 (seed 3) this raised 1,660 to 7,929 cells (under 1%), cut 40–46% fewer
+//! breach paths (mixed-1024: 2,165 to 1,297) and lowered 16–21% fewer cells; the
 //! filled floors lie well inside the geomorphons' lookup, so the flat landform share
 //! stays at 0.00–0.06%.
 //!
