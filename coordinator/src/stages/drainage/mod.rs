@@ -179,9 +179,9 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floor: &[f32], patch: usize, h
                 continue;
             }
             // the first pass fills each depression's bottom first (Lindsay's hybrid); what
-            // is left is breached however shallow (it was deeper than MIN_DEPTH_M, and a
-            // shallow closed floor left at a valley's end keeps its whole catchment from
-            // the border: on a 4096² sketch the share draining there fell to 0.72)
+            // is left is breached however shallow (the depression was deeper than
+            // MIN_DEPTH_M, and a closed floor left at a valley's end would keep its whole
+            // catchment from the border)
             let first_pit = pit;
             let mut filled =
                 (pass == 0 && hybrid == Hybrid::FillThenBreach).then(|| fill_bottom(h, topo, pit, fill_cells(patch)));
