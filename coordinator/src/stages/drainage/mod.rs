@@ -9,17 +9,18 @@
 //! cheapest way down to lower ground or the border. The path follows the terrain's own
 //! low ground (a col between two valleys), so it is short and no straight trench.
 //!
-//! **Fill, then breach** (the hybrid of the same paper). In the first pass each
+//! **Fill, then breach** (the hybrid of the same paper). In every pass each
 //! depression's bottom, at most [`fill_cells`] cells about its pit, is filled first
 //! ([`fill`]): a narrow pit is so filled to its rim, and a wider depression is breached
 //! from the level its filled floor reached, so its gully is that much shallower and
 //! narrower. (A bottom whose fill spills into a lower part of the same depression, or
 //! from which no way out is found, is put back and breached from its pit as before; a
 //! coarse level breaches only, see [`Hybrid`].) On the six 1024² sketch–library pairs
-//! of issue 25 (seed 3) this raised 1,660 to 7,929 cells (under 1%), cut 40–46% fewer
-//! breach paths (mixed-1024: 2,165 to 1,297) and lowered 16–21% fewer cells; the
-//! filled floors lie well inside the geomorphons' lookup, so the flat landform share
-//! stays at 0.00–0.06%.
+//! of issue 25 (seed 3) this raised 2,269 to 10,930 cells (about 1%), cut 56–65% fewer
+//! breach paths (mixed-1024: 2,165 to 952) and lowered 24–29% fewer cells (7–16% fewer
+//! by more than 10 m); the filled floors lie well inside the geomorphons' lookup, so
+//! the flat landform share stays at 0.00–0.06%. (Filling in the first pass only, the
+//! remaining pits of later passes breached from their pits: 16–21% fewer cells.)
 //!
 //! **The cut** ([`carve`]) is a smooth bump subtracted from the terrain, not a surface
 //! the terrain is clipped to: each path cell must come down onto the line by its drop,
@@ -178,13 +179,12 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floor: &[f32], patch: usize, h
             if depth <= MIN_DEPTH_M {
                 continue;
             }
-            // the first pass fills each depression's bottom first (Lindsay's hybrid); what
-            // is left is breached however shallow (the depression was deeper than
+            // each depression's bottom is filled first (Lindsay's hybrid); what is left
+            // is breached however shallow (the depression was deeper than
             // MIN_DEPTH_M, and a closed floor left at a valley's end would keep its whole
             // catchment from the border)
             let first_pit = pit;
-            let mut filled =
-                (pass == 0 && hybrid == Hybrid::FillThenBreach).then(|| fill_bottom(h, topo, pit, fill_cells(patch)));
+            let mut filled = (hybrid == Hybrid::FillThenBreach).then(|| fill_bottom(h, topo, pit, fill_cells(patch)));
             match &filled {
                 // filled to the depression's own spill level: it drains
                 Some(f) if f.drains && f.rise >= depth - SPILL_TOLERANCE_M => {
