@@ -66,7 +66,7 @@ use super::SynthError;
 use crate::canvas::Canvas;
 use crate::progress::Stage;
 use crate::stages::base_surface::{CoarseBand, DETAIL_BAND};
-use crate::stages::coarse_level::{self, CoarseJob, CoarseLevel};
+use crate::stages::coarse_level::{self, CoarseJob, CoarseLevel, FormSources};
 use crate::stages::detail_level::{self, DetailPlan, DetailStats};
 use crate::stages::drainage::{breach_under_sketch, Hybrid};
 use crate::stages::editing;
@@ -181,7 +181,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
         (None, None) => None,
     };
     let coarse_run = coarse_run.and_then(|(level, f, cp, band)| Some((level, f, cp, band, library_at(level)?)));
-    let (form, coarse_done, mut fine) = match (form, coarse_run) {
+    let (form, coarse_done, mut fine, form_sources) = match (form, coarse_run) {
         (Some(_), Some((level, f, cp, band, lib))) => {
             let (form, c, fine) = run.run(Stage::CoarseLevel, |cx| {
                 let mut c = CoarseJob::new(&sk, f, &lib, cp, set.elevation_range);
@@ -199,7 +199,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
                 place_features(&mut c.canvas, &ups, first_shards, &settings, cx.pool)?;
                 let empty = c.canvas.empty as u64;
                 let on_fill = |left: u64, _: &Canvas| cx.progress(empty - left, empty);
-                let fill = FillSettings { level, seed: set.seed, base: Some(&c.form.target) };
+                let fill = FillSettings { level, seed: set.seed, base: Some(&c.form.target), form: None };
                 fill_holes(&mut c.canvas, first_shards, &fill, cx.pool, &on_fill, cx.cancel)?;
                 // the fills' levels walk away from the target across the canvas: held to
                 // it above a few patches (see `large_scale::anchor`)
@@ -216,10 +216,13 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
                 };
                 Ok((form, c, fine))
             })?;
-            // the coarse level itself is kept only for a detail level's output
-            (Some(form), detail.is_some().then_some(c), fine)
+            // the coarse level itself is kept only for a detail level's output; from a
+            // coarse level of the same shards, which exemplar made each landform (the
+            // output level's fills prefer it, `FormSources`)
+            let sources = detail.is_none().then(|| FormSources::of(&c.canvas, c.factor));
+            (Some(form), detail.is_some().then_some(c), fine, sources)
         }
-        (form, _) => (form, None, None),
+        (form, _) => (form, None, None, None),
     };
     let base = form.as_ref().map(|f| &f.target);
     // the shards the output level is made from
@@ -270,7 +273,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
             cx.progress(done, empty);
             cx.placements(c);
         };
-        let fill = FillSettings { level: OUTPUT_LEVEL, seed: set.seed, base };
+        let fill = FillSettings { level: OUTPUT_LEVEL, seed: set.seed, base, form: form_sources.as_ref() };
         let filled = fill_holes(&mut canvas, level_shards, &fill, cx.pool, &on_fill, cx.cancel)?;
         // a detail level's generator: its detail, once every cell is filled, scaled by
         // how rough the coarse terrain is (`detail_level::modulate`); detail from fine
@@ -391,7 +394,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
                     cancel: cx.cancel,
                 };
                 place_features(&mut rolled, &user_patches::within(&moved, &edit.mask), shards, &placing, cx.pool)?;
-                let fill = FillSettings { level: OUTPUT_LEVEL, seed, base: None };
+                let fill = FillSettings { level: OUTPUT_LEVEL, seed, base: None, form: None };
                 fill_holes(&mut rolled, shards, &fill, cx.pool, &|_, _| {}, cx.cancel)?;
                 join = join.and(cx.install(|| editing::join(&mut rolled.heights, &edit)));
                 canvas.heights = editing::roll(&rolled.heights, (w - dx) % w, (h - dy) % h);

@@ -99,6 +99,41 @@ impl CoarseJob {
     }
 }
 
+/// Which exemplar made the coarse level's landform under each output cell: the
+/// source of the coarse placement at every coarse cell (`u32::MAX` where none).
+///
+/// The output level's fills prefer it (`hole_filling::front::fill_query` counts it
+/// over a window's empty cells in the coherence bonus), so the detail laid on a
+/// coarse landform is, where the overlap allows, that landform's own exemplar's at the
+/// finer cell size (source ids are the same at every level of a shard): without it
+/// the detail's source is random relative to the form (a fill of an empty window has
+/// no overlap to rank it), a patchwork of smooth and rough detail at the output
+/// level's patch size across one landform.
+#[derive(Clone)]
+pub struct FormSources {
+    factor: usize,
+    width: usize,
+    height: usize,
+    source: Vec<u32>,
+}
+
+impl FormSources {
+    /// The sources of the coarse canvas `c`, whose cells are `factor` output cells a side.
+    pub fn of(c: &Canvas, factor: usize) -> FormSources {
+        let source = c.provenance.data.iter().map(|&id| c.placements.get(id as usize).map_or(u32::MAX, |p| p.source)).collect();
+        FormSources { factor, width: c.provenance.width, height: c.provenance.height, source }
+    }
+
+    /// The source under output cell (x, y) (`u32::MAX`: none).
+    pub fn at(&self, x: usize, y: usize) -> u32 {
+        if self.width == 0 || self.height == 0 {
+            return u32::MAX;
+        }
+        let (cx, cy) = ((x / self.factor).min(self.width - 1), (y / self.factor).min(self.height - 1));
+        self.source[cy * self.width + cx]
+    }
+}
+
 /// A finished coarse level: its terrain and provenance (the canvas), the sketch at
 /// its size, its factor and patch.
 pub struct CoarseLevel {

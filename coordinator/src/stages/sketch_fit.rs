@@ -291,7 +291,9 @@ fn fit(h: &mut Heightfield, sk: &SketchFeatures, patch: usize) -> FitStats {
                 m
             })
             .collect();
-        stats.max_change = band_max.into_iter().fold(stats.max_change, f32::max);
+        let pass_max = band_max.into_iter().fold(0f32, f32::max);
+        tracing::debug!(pass, cells_off = ?off, max_change = pass_max, "sketch fit pass");
+        stats.max_change = stats.max_change.max(pass_max);
     }
     stats.cells_moved = moved.iter().filter(|&&m| m != 0).count();
     stats

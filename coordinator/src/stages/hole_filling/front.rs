@@ -41,6 +41,7 @@
 
 use crate::canvas::{Canvas, Placement, Rect, Win};
 use crate::stages::base_surface::BaseSurface;
+use crate::stages::coarse_level::FormSources;
 use crate::stages::merge::SeamLimits;
 use crate::stages::window_scoring::{cut_and_merge, Target};
 use ridgeline_terrain::shard::{FillCandidate, FillQuery};
@@ -151,6 +152,9 @@ pub(super) struct FillEnv {
     pub(super) median_relief: f32,
     /// The large-scale shape fills follow (`base_surface`).
     pub(super) base: BaseSurface,
+    /// Which exemplar made the coarse landform under each cell, if the job has a
+    /// coarse level (`coarse_level::FormSources`).
+    pub(super) form: Option<FormSources>,
 }
 
 /// One tile's fill front and its sub-canvas.
@@ -349,19 +353,41 @@ pub(super) fn fill_query(canvas: &Canvas, cx: usize, cy: usize, env: &FillEnv) -
         .filter(|(i, v)| !v.is_nan() && (i % p).is_multiple_of(3) && (i / p).is_multiple_of(3))
         .map(|(i, &v)| (i as u32, v))
         .collect();
-    // which exemplars the filled part of the window came from
+    let q = FillQuery {
+        id: 0,
+        samples,
+        relief,
+        noise: t.noise,
+        coherence: coherence(canvas, &t.win, t.filled, env.form.as_ref()),
+        avoid: canvas.avoid_list(cx, cy),
+    };
+    (q, (t, relief, base))
+}
+
+/// The coherence weights of window `win` (`filled` of its cells known): the share of
+/// the filled cells each exemplar supplied; with a coarse level's `form`, the share of
+/// the whole window, the empty cells counted for the exemplar that made the coarse
+/// landform under them, so a fill prefers its form's source even where nothing is
+/// placed yet.
+pub(super) fn coherence(canvas: &Canvas, win: &Win, filled: usize, form: Option<&FormSources>) -> Vec<(u32, f32)> {
+    let (ox, oy) = canvas.origin();
     let mut from: BTreeMap<u32, usize> = BTreeMap::new();
-    for j in 0..t.win.h {
-        for i in 0..t.win.w {
-            let id = canvas.provenance.get(t.win.x0 + i, t.win.y0 + j);
-            if id != u32::MAX {
-                *from.entry(canvas.placements[id as usize].source).or_default() += 1;
+    for j in 0..win.h {
+        for i in 0..win.w {
+            let (x, y) = (win.x0 + i, win.y0 + j);
+            let id = canvas.provenance.get(x, y);
+            let source = match (id, form) {
+                (u32::MAX, Some(f)) => f.at(ox + x, oy + y),
+                (u32::MAX, None) => continue,
+                _ => canvas.placements[id as usize].source,
+            };
+            if source != u32::MAX {
+                *from.entry(source).or_default() += 1;
             }
         }
     }
-    let coherence = from.into_iter().map(|(s, n)| (s, n as f32 / t.filled.max(1) as f32)).collect();
-    let q = FillQuery { id: 0, samples, relief, noise: t.noise, coherence, avoid: canvas.avoid_list(cx, cy) };
-    (q, (t, relief, base))
+    let cells = if form.is_some() { win.w * win.h } else { filled };
+    from.into_iter().map(|(s, n)| (s, n as f32 / cells.max(1) as f32)).collect()
 }
 
 #[cfg(test)]
@@ -377,6 +403,45 @@ mod tests {
             }
         }
         c
+    }
+
+    #[test]
+    fn coherence_counts_the_form_source_over_empty_cells() {
+        // a 64 x 64 output whose coarse level (factor 4) came from source 7 on the left
+        // half and source 9 on the right; a placement of source 3 fills the window's
+        // top quarter
+        let mut c = Canvas::new(64, 64, 16);
+        let coarse = {
+            let mut k = Canvas::new(16, 16, 16);
+            let a = k.record(Placement { source: 7, src_x: 0, src_y: 0, variant: 0, cx: 4, cy: 8, featureless: false });
+            let b = k.record(Placement { source: 9, src_x: 0, src_y: 0, variant: 0, cx: 12, cy: 8, featureless: false });
+            for (i, v) in k.provenance.data.iter_mut().enumerate() {
+                *v = if i % 16 < 8 { a } else { b };
+            }
+            k
+        };
+        let form = FormSources::of(&coarse, 4);
+        let id = c.record(Placement { source: 3, src_x: 0, src_y: 0, variant: 0, cx: 32, cy: 20, featureless: false });
+        let win = c.window(32, 32);
+        for x in win.x0..win.x0 + win.w {
+            for y in win.y0..win.y0 + 4 {
+                c.provenance.set(x, y, id);
+            }
+        }
+        let filled = win.w * 4;
+        // without the form: only the filled cells count, all of them source 3
+        assert_eq!(coherence(&c, &win, filled, None), vec![(3, 1.0)]);
+        // with it: shares of the whole window, the empty cells split between the form's
+        // sources by the coarse cell under them (the window spans columns 24..40)
+        let with = coherence(&c, &win, filled, Some(&form));
+        assert_eq!(with.iter().map(|s| s.0).collect::<Vec<_>>(), vec![3, 7, 9]);
+        assert!(
+            (with[0].1 - 0.25).abs() < 1e-6 && (with[1].1 - 0.375).abs() < 1e-6 && (with[2].1 - 0.375).abs() < 1e-6,
+            "{with:?}"
+        );
+        // a coarse cell with no placement counts for no source
+        let bare = FormSources::of(&Canvas::new(16, 16, 16), 4);
+        assert_eq!(coherence(&c, &win, filled, Some(&bare)), vec![(3, 0.25)]);
     }
 
     #[test]

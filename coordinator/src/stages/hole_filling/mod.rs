@@ -24,6 +24,16 @@
 //! filled from both sides in successive phases (the graph cut and the gradient-domain
 //! merge join them like any overlap).
 //!
+//! **Coherence with the coarse level.** The coherence weights are the share of the
+//! window's known cells each exemplar supplied; on a job with a coarse level
+//! (`coarse_level`), the window's empty cells count too, for the exemplar that made
+//! the coarse landform under them (`coarse_level::FormSources`), so the detail laid
+//! on a landform is, where the overlap allows, its own exemplar's. On two 4096² jobs
+//! (seed 2 massif on the 16 shared DEMs, seed 5 mixed-1024 upscaled on 15 without
+//! alaska) the roughness ratio went from 1.094 and 0.966 to 1.025 and 1.002,
+//! repetition from 0.0054 and 0.0076 to 0.0045 and 0.0041, and conditioning lowered
+//! 8% and 6% fewer cells by more than 10 m; the other figures moved by noise.
+//!
 //! **Scoring where the pool lives.** In each *wave* every active tile of the phase
 //! pops its best target and describes it as a [`FillQuery`] (the known cells of the
 //! window, sampled every third cell each way, its relief, noise, coherence weights and
@@ -44,6 +54,7 @@ pub use front::KNOWN_SHARE;
 use crate::canvas::{Canvas, Rect};
 use crate::shards::on_every_shard;
 use crate::stages::base_surface::BaseSurface;
+use crate::stages::coarse_level::FormSources;
 use crate::stages::ragged_edge::in_extent;
 use crate::stages::window_scoring::GRAPH_CUT_SET;
 use front::{fill_placement, FillEnv, TileFill};
@@ -77,6 +88,9 @@ pub struct FillSettings<'a> {
     pub seed: u64,
     /// The large-scale target fills follow; `None`: a membrane over the placed features.
     pub base: Option<&'a BaseSurface>,
+    /// On a job with a coarse level: which exemplar made the landform under each cell,
+    /// which fills prefer (`FormSources`).
+    pub form: Option<&'a FormSources>,
 }
 
 /// Why hole filling could not finish.
@@ -196,7 +210,8 @@ pub fn fill_holes(
     if canvas.empty == w * h {
         // nothing placed (a sketch without strokes): start from one featureless patch,
         // the one the seed's jitter ranks first
-        let q = FillQuery { id: 0, samples: Vec::new(), relief: 1.0, noise: None, coherence: Vec::new(), avoid: Vec::new() };
+        let coherence = front::coherence(canvas, &canvas.window(w / 2, h / 2), 0, set.form);
+        let q = FillQuery { id: 0, samples: Vec::new(), relief: 1.0, noise: None, coherence, avoid: Vec::new() };
         let best = score_wave(shards, level, &[q], seed, pool)?.remove(0);
         let c = best.first().ok_or(FillError::NoCandidates)?;
         let pixels = match set.base {
@@ -209,7 +224,7 @@ pub fn fill_holes(
     }
     // the large-scale target when the job has one, else the membrane over what is placed
     let base = set.base.cloned().unwrap_or_else(|| BaseSurface::of(canvas));
-    let env = FillEnv { slope_ref: typical_slope(canvas), median_relief, base };
+    let env = FillEnv { slope_ref: typical_slope(canvas), median_relief, base, form: set.form.cloned() };
     let side = tile_side(w, h, p);
     let (tw, th) = (w.div_ceil(side), h.div_ceil(side));
     let core = |t: usize| {

@@ -114,7 +114,7 @@ pub fn remake(canvas: &mut Canvas, regions: &Regions, r: usize, pass: &RegionPas
         cancel: pass.cancel,
     };
     let placed = place_features(&mut c, &ups, pass.shards, &placing, pass.pool)?;
-    let fill = FillSettings { level: OUTPUT_LEVEL, seed, base: pass.base };
+    let fill = FillSettings { level: OUTPUT_LEVEL, seed, base: pass.base, form: None };
     let filled = fill_holes(&mut c, pass.shards, &fill, pass.pool, &|_, _| {}, pass.cancel)?;
     pass.pool.install(|| {
         if pass.fit_sketch {
