@@ -204,7 +204,10 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
                 // the fills' levels walk away from the target across the canvas: held to
                 // it above a few patches (see `large_scale::anchor`)
                 c.form.stats.held_to_target_m = cx.install(|| large_scale::anchor(&mut c.canvas.heights, &c.form.target, cp));
-                if set.fit_sketch {
+                // a detail level's coarse run is the form itself, fitted to the sketch
+                // here; a Laplacian coarse level is not (`coarse_level`, "No sketch
+                // fit"): the output level is fitted at the scale adherence is measured
+                if set.fit_sketch && detail.is_some() {
                     cx.install(|| fit_to_sketch(&mut c.canvas.heights, &c.sketch, cp));
                 }
                 let (form, c) = cx.install(|| c.finish(cp, band));
