@@ -8,8 +8,8 @@
 //! 3. [`large_scale::plan`] — the large-scale target from the strokes (ridges high,
 //!    valleys low towards their outlets), which every patch is merged on; on a large
 //!    output the whole synthesis (stages 3 to 8, without the sketch fit) runs first at
-//!    a coarser level ([`coarse_level`]) on that target, and the coarse terrain, held to the target
-//!    above a few patches ([`large_scale::anchor`]), becomes the surface the output
+//!    a coarser level ([`coarse_level`]) on that target, and the coarse terrain, held
+//!    to the target above a few patches ([`large_scale::anchor`]), becomes the surface the output
 //!    level's patches are merged on; on an output whose cells are finer
 //!    than its exemplars', that coarser level is at their cell size and the output
 //!    level is made from fine sources only, or from a generator made for the job

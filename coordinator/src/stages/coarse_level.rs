@@ -2,10 +2,10 @@
 //! pyramid; seed 003's coarse-to-fine solve): on a large output, the whole job is
 //! first run at a coarser level — the sketch and the exemplars downsampled by
 //! [`FACTOR`], the same stages (large-scale target, feature placement, hole filling,
-//! breaching; no sketch fit, below) on a canvas [`FACTOR`] times smaller each way, the filled
-//! terrain held to the target above a few patches (`large_scale::anchor`) — and the
-//! coarse terrain then becomes the surface every patch of the output level is merged
-//! on (`BaseSurface::coarse_terrain`): each patch keeps only its detail below a
+//! breaching; no sketch fit, below) on a canvas [`FACTOR`] times smaller each way,
+//! the filled terrain held to the target above a few patches (`large_scale::anchor`)
+//! — and the coarse terrain then becomes the surface every patch of the output level
+//! is merged on (`BaseSurface::coarse_terrain`): each patch keeps only its detail below a
 //! Gaussian of σ = `DETAIL_BAND` coarse cells, the coarse terrain under the same blur
 //! gives everything larger — the two bands of a Laplacian pyramid, so the output's
 //! spectrum is the exemplars' at both scales (with the patches' whole relief about a
@@ -130,7 +130,6 @@ impl CoarseJob {
 /// the detail's source is random relative to the form (a fill of an empty window has
 /// no overlap to rank it), a patchwork of smooth and rough detail at the output
 /// level's patch size across one landform.
-#[derive(Clone)]
 pub struct FormSources {
     factor: usize,
     width: usize,
@@ -147,9 +146,6 @@ impl FormSources {
 
     /// The source under output cell (x, y) (`u32::MAX`: none).
     pub fn at(&self, x: usize, y: usize) -> u32 {
-        if self.width == 0 || self.height == 0 {
-            return u32::MAX;
-        }
         let (cx, cy) = ((x / self.factor).min(self.width - 1), (y / self.factor).min(self.height - 1));
         self.source[cy * self.width + cx]
     }

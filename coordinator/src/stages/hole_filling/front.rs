@@ -147,14 +147,14 @@ pub(super) fn lattice(n: usize, step: usize, lo: usize, hi: usize) -> Vec<usize>
 }
 
 /// Output-wide settings of a fill run.
-pub(super) struct FillEnv {
+pub(super) struct FillEnv<'a> {
     pub(super) slope_ref: f32,
     pub(super) median_relief: f32,
     /// The large-scale shape fills follow (`base_surface`).
     pub(super) base: BaseSurface,
     /// Which exemplar made the coarse landform under each cell, if the job has a
     /// coarse level (`coarse_level::FormSources`).
-    pub(super) form: Option<FormSources>,
+    pub(super) form: Option<&'a FormSources>,
 }
 
 /// One tile's fill front and its sub-canvas.
@@ -358,7 +358,7 @@ pub(super) fn fill_query(canvas: &Canvas, cx: usize, cy: usize, env: &FillEnv) -
         samples,
         relief,
         noise: t.noise,
-        coherence: coherence(canvas, &t.win, t.filled, env.form.as_ref()),
+        coherence: coherence(canvas, &t.win, t.filled, env.form),
         avoid: canvas.avoid_list(cx, cy),
     };
     (q, (t, relief, base))

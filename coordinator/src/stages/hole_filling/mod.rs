@@ -224,7 +224,7 @@ pub fn fill_holes(
     }
     // the large-scale target when the job has one, else the membrane over what is placed
     let base = set.base.cloned().unwrap_or_else(|| BaseSurface::of(canvas));
-    let env = FillEnv { slope_ref: typical_slope(canvas), median_relief, base, form: set.form.cloned() };
+    let env = FillEnv { slope_ref: typical_slope(canvas), median_relief, base, form: set.form };
     let side = tile_side(w, h, p);
     let (tw, th) = (w.div_ceil(side), h.div_ceil(side));
     let core = |t: usize| {
