@@ -2,7 +2,8 @@
 //! pyramid; seed 003's coarse-to-fine solve): on a large output, the whole job is
 //! first run at a coarser level — the sketch and the exemplars downsampled by
 //! [`FACTOR`], the same stages (large-scale target, feature placement, hole filling,
-//! breaching; no sketch fit, below) on a canvas [`FACTOR`] times smaller each way,
+//! breaching or filling its depressions, `drainage::Hybrid::BreachOrFill`; no sketch
+//! fit, below) on a canvas [`FACTOR`] times smaller each way,
 //! the filled terrain held to the target above a few patches (`large_scale::anchor`)
 //! — and the coarse terrain then becomes the surface every patch of the output level
 //! is merged on (`BaseSurface::coarse_terrain`): each patch keeps only its detail below a
@@ -112,7 +113,7 @@ impl CoarseJob {
     /// (`BaseSurface::coarse_terrain`), with the coarse plan's range and statistics —
     /// and the coarse level itself (its canvas and sketch).
     pub fn finish(mut self, patch: usize, band: CoarseBand) -> (LargeScale, CoarseLevel) {
-        breach_under_sketch(&mut self.canvas.heights, &self.sketch, patch, false, Hybrid::BreachOnly);
+        breach_under_sketch(&mut self.canvas.heights, &self.sketch, patch, false, Hybrid::BreachOrFill);
         let h = &self.canvas.heights;
         let target = BaseSurface::coarse_terrain(self.factor, h.width, h.height, h.data.clone(), band);
         let level = CoarseLevel { factor: self.factor, patch, canvas: self.canvas, sketch: self.sketch };

@@ -80,7 +80,8 @@ pub(super) fn held_radius(h: &Heightfield, topo: Topology, floor: Floors, at: (i
     best.max(GULLY_RADIUS as i64)
 }
 
-/// Lowers the terrain along a breach path by a smooth cut: each path cell after the
+/// The cut along a breach path, each cell once with how far it comes down (applied by
+/// [`carve`]): a smooth cut, each path cell after the
 /// pit must come down onto the line falling from the pit to the outlet (the outlet too
 /// where it is a border cell above the line: water leaves there) by its drop `d`, and
 /// the cut at a cell is the largest `d · K(r / R)` over the path cells, `K` a smooth
@@ -89,9 +90,8 @@ pub(super) fn held_radius(h: &Heightfield, topo: Topology, floor: Floors, at: (i
 /// subtracted, so the terrain's own relief stays on the gully's floor and walls: a
 /// valley through the sill, not a trench with a smooth floor. A crest (`floor`
 /// infinite) is never lowered; near a held floor the gully narrows
-/// ([`held_radius`]). Returns the cells lowered, those lowered by more than
-/// [`BIG_CUT_M`], and the deepest cut.
-pub(super) fn carve(h: &mut Heightfield, topo: Topology, path: &[usize], floor: Floors, wall: f32) -> (usize, usize, f32) {
+/// ([`held_radius`]).
+pub(super) fn gully(h: &Heightfield, topo: Topology, path: &[usize], floor: Floors, wall: f32) -> Vec<(usize, f32)> {
     let (w, hh) = (h.width, h.height);
     let torus = topo.wrap;
     let (z, end) = (h.data[path[0]], h.data[path[path.len() - 1]]);
@@ -121,7 +121,7 @@ pub(super) fn carve(h: &mut Heightfield, topo: Topology, path: &[usize], floor: 
         })
         .collect();
     if drops.is_empty() {
-        return (0, 0, 0.0);
+        return Vec::new();
     }
     // the cut over the bounding box of the path and its gullies (clipped to the grid
     // on a rectangle)
@@ -162,14 +162,18 @@ pub(super) fn carve(h: &mut Heightfield, topo: Topology, path: &[usize], floor: 
         by_cell.sort_by(|a, b| a.0.cmp(&b.0).then(b.1.total_cmp(&a.1)));
         by_cell.dedup_by_key(|e| e.0);
     }
-    let (mut lowered, mut big, mut deepest) = (0, 0, 0f32);
-    for (j, d) in by_cell {
-        if h.data[j].is_finite() {
-            deepest = deepest.max(d);
-            h.data[j] -= d;
-            lowered += 1;
-            big += usize::from(d > BIG_CUT_M);
-        }
+    by_cell.retain(|&(j, _)| h.data[j].is_finite());
+    by_cell
+}
+
+/// Lowers the terrain by a [`gully`]'s cut. Returns the cells lowered, those lowered
+/// by more than [`BIG_CUT_M`], and the deepest cut.
+pub(super) fn carve(h: &mut Heightfield, cut: &[(usize, f32)]) -> (usize, usize, f32) {
+    let (mut big, mut deepest) = (0, 0f32);
+    for &(j, d) in cut {
+        deepest = deepest.max(d);
+        h.data[j] -= d;
+        big += usize::from(d > BIG_CUT_M);
     }
-    (lowered, big, deepest)
+    (cut.len(), big, deepest)
 }

@@ -13,6 +13,10 @@
 //! depression, well inside the geomorphons' 20-cell lookup, so they read as the pit's
 //! floor, not as flat land.
 
+//! A coarse level may fill a depression whole instead of breaching it (see
+//! `Hybrid::BreachOrFill`): the same flood, up to [`whole_fill_cells`] cells, kept
+//! only if it spills, and only where its rise is less than the breach would cut.
+//!
 //! **What.** From the pit, cells join in order of height (a priority flood out of the
 //! pit alone) until [`fill_cells`] have joined, the water would spill to a lower cell
 //! outside, or the border is reached. Every joined cell is raised to the highest
@@ -36,6 +40,12 @@ pub fn fill_cells(patch: usize) -> usize {
     (patch / 16).max(1).pow(2)
 }
 
+/// How many cells a depression may have to be filled whole instead of breached
+/// ([`Hybrid::BreachOrFill`](super::Hybrid::BreachOrFill)): a patch's area.
+pub fn whole_fill_cells(patch: usize) -> usize {
+    patch * patch
+}
+
 /// What filling one depression's bottom did.
 #[derive(Debug, Clone, PartialEq)]
 pub(super) struct Filled {
@@ -45,6 +55,8 @@ pub(super) struct Filled {
     pub(super) rise: f32,
     /// The cells raised, with their heights before.
     pub(super) raised: Vec<(usize, f32)>,
+    /// The sum of their rises (metres times cells).
+    pub(super) volume: f64,
     /// The depression was filled to its spill level: it drains now.
     pub(super) drains: bool,
 }
@@ -109,16 +121,17 @@ pub(super) fn fill_bottom(h: &mut Heightfield, topo: Topology, pit: usize, max_c
             }
         }
     }
-    let mut raised = Vec::new();
+    let (mut raised, mut volume) = (Vec::new(), 0.0);
     for (k, &c) in joined.iter().enumerate() {
         let new = level + FALL_PER_CELL * steps[k] as f32;
         if new > h.data[c] {
             raised.push((c, h.data[c]));
+            volume += f64::from(new - h.data[c]);
             h.data[c] = new;
         }
     }
     let new_pit = joined.iter().copied().min_by(|&a, &b| h.data[a].total_cmp(&h.data[b]).then(a.cmp(&b))).unwrap_or(pit);
-    Filled { pit: new_pit, rise: level - z0, raised, drains: spill.is_some() }
+    Filled { pit: new_pit, rise: level - z0, raised, volume, drains: spill.is_some() }
 }
 
 #[cfg(test)]

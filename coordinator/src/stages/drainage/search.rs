@@ -90,7 +90,8 @@ pub(super) fn has_way_down(h: &Heightfield, topo: Topology, pit: usize) -> bool 
 /// The least-cost path from `pit` to a cell lower than the line falling from it (or to
 /// the border), within `reach` cells of it, never through a cell that may not be cut
 /// (`floor` infinite), never cutting one below its floor or more than `max_cut` below
-/// its height: the cells from the pit to that cell, or `None`.
+/// its height, costing no more than `max_cost` (the sum of its cells' cuts): the cells
+/// from the pit to that cell, or `None`.
 pub(super) fn breach_path(
     h: &Heightfield,
     topo: Topology,
@@ -98,6 +99,7 @@ pub(super) fn breach_path(
     floor: Floors,
     reach: usize,
     max_cut: f32,
+    max_cost: f32,
 ) -> Option<Vec<usize>> {
     let z = h.data[pit];
     let mut best: FxHashMap<usize, (f32, u32, usize)> = FxHashMap::default();
@@ -107,6 +109,9 @@ pub(super) fn breach_path(
         let (cc, steps, _) = best[&c];
         if cost > cc {
             continue;
+        }
+        if cost > max_cost {
+            return None;
         }
         let line = z - FALL_PER_CELL * steps as f32;
         if c != pit && (h.data[c] < line || topo.is_outlet(c)) {

@@ -54,14 +54,46 @@ fn a_dammed_valley_is_breached_through_the_dam_with_few_cells() {
 }
 
 #[test]
-fn breaching_only_lowers_and_fills_no_bottom() {
-    // a coarse level's conditioning: the same dam breached from the lake's pit
+fn a_coarse_level_breaches_a_long_lake_and_fills_a_deep_hole() {
+    // a coarse level's conditioning: the dam's lake runs far up the valley, so the
+    // gully through the dam cuts less than filling the lake would raise: breached
+    // from the lake's pit, nothing raised
     let mut h = dammed();
     let before = h.clone();
     let keep = vec![f32::NEG_INFINITY; h.data.len()];
-    let s = breach_depressions(&mut h, &keep, 32, Hybrid::BreachOnly);
-    assert_eq!((s.left, s.bottoms_filled, s.cells_raised), (0, 0, 0), "{s:?}");
+    let s = breach_depressions(&mut h, &keep, 32, Hybrid::BreachOrFill);
+    assert_eq!((s.breached, s.left, s.bottoms_filled, s.cells_raised), (1, 0, 0, 0), "{s:?}");
     assert!(h.data.iter().zip(&before.data).all(|(a, b)| a <= b));
+    assert_eq!(drainage_shares(&h, MIN_DEPTH_M).sink_share, 0.0);
+    // a hole 3 cells across and 600 m deep sunk in a plateau 40 cells from its rim:
+    // a breach would be a 40-cell trench hundreds of metres deep; the hole is filled
+    // to the plateau instead, nothing lowered
+    let (w, hh) = (120usize, 120usize);
+    let plateau = |x: f32, y: f32| {
+        let rim = (x - 60.0).abs().max((y - 60.0).abs());
+        if rim < 40.0 {
+            1500.0
+        } else {
+            1500.0 - 10.0 * (rim - 40.0)
+        }
+    };
+    let mut h: Heightfield = Grid::from_vec(
+        w,
+        hh,
+        (0..w * hh)
+            .map(|i| {
+                let (x, y) = ((i % w) as f32, (i / w) as f32);
+                let hole = (x - 60.0).abs() <= 1.0 && (y - 60.0).abs() <= 1.0;
+                plateau(x, y) + 0.01 * (x + y) - if hole { 600.0 } else { 0.0 }
+            })
+            .collect(),
+    );
+    let before = h.clone();
+    let keep = vec![f32::NEG_INFINITY; h.data.len()];
+    let s = breach_depressions(&mut h, &keep, 32, Hybrid::BreachOrFill);
+    assert_eq!((s.breached, s.left, s.cells_lowered), (0, 0, 0), "{s:?}");
+    assert_eq!((s.bottoms_filled, s.filled_to_rim, s.cells_raised), (1, 1, 9), "{s:?}");
+    assert!(h.data.iter().zip(&before.data).all(|(a, b)| a >= b && a - b < 601.0));
     assert_eq!(drainage_shares(&h, MIN_DEPTH_M).sink_share, 0.0);
 }
 
