@@ -73,6 +73,14 @@ impl Filled {
 /// Fills the bottom of the depression whose deepest cell is `pit` (see the module
 /// header), at most `max_cells` cells.
 pub(super) fn fill_bottom(h: &mut Heightfield, topo: Topology, pit: usize, max_cells: usize) -> Filled {
+    fill_from(h, topo, pit, max_cells, None)
+}
+
+/// [`fill_bottom`]; with `water` (the terrain's water levels, depressions filled), the
+/// water spills only to lower ground outside the depression: the other basins behind
+/// the depression's sill that it reaches are filled with it (a compound depression
+/// filled from its deepest pit).
+pub(super) fn fill_from(h: &mut Heightfield, topo: Topology, pit: usize, max_cells: usize, water: Option<&[f32]>) -> Filled {
     let z0 = h.data[pit];
     let mut joined: Vec<usize> = Vec::new();
     let mut seen: FxHashMap<usize, ()> = FxHashMap::default();
@@ -81,7 +89,7 @@ pub(super) fn fill_bottom(h: &mut Heightfield, topo: Topology, pit: usize, max_c
     let mut level = z0;
     let mut spill = None;
     while let Some(Reverse((Total(v), c))) = heap.pop() {
-        if v < level {
+        if v < level && !water.is_some_and(|w| w[c] > v) {
             // lower ground outside: the water leaves the joined cells here
             spill = Some(c);
             break;
@@ -89,7 +97,7 @@ pub(super) fn fill_bottom(h: &mut Heightfield, topo: Topology, pit: usize, max_c
         if joined.len() == max_cells || topo.is_outlet(c) {
             break;
         }
-        level = v;
+        level = level.max(v);
         joined.push(c);
         for j in topo.neighbours(c) {
             if h.data[j].is_finite() && seen.insert(j, ()).is_none() {

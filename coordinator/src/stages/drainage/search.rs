@@ -47,8 +47,9 @@ pub(super) fn local_depth(h: &Heightfield, topo: Topology, pit: usize, max_cells
 }
 
 /// The deepest cell of every depression deeper than [`MIN_DEPTH_M`], as (height, cell,
-/// depth below the depression's spill level), lowest first.
-pub(super) fn pits(h: &Heightfield, topo: Topology) -> Vec<(f32, usize, f32)> {
+/// depth below the depression's spill level), lowest first; and every cell's water
+/// level (the depression-filled terrain).
+pub(super) fn pits(h: &Heightfield, topo: Topology) -> (Vec<(f32, usize, f32)>, Vec<f32>) {
     let level = water_levels(h);
     let (w, hh) = (h.width, h.height);
     let depth = |i: usize| if h.data[i].is_finite() { level[i] - h.data[i] } else { 0.0 };
@@ -78,7 +79,7 @@ pub(super) fn pits(h: &Heightfield, topo: Topology) -> Vec<(f32, usize, f32)> {
         }
     }
     out.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-    out
+    (out, level)
 }
 
 /// Whether water at `pit` can already flow on to a lower neighbour, or leaves the
@@ -91,7 +92,8 @@ pub(super) fn has_way_down(h: &Heightfield, topo: Topology, pit: usize) -> bool 
 /// the border), within `reach` cells of it, never through a cell that may not be cut
 /// (`floor` infinite), never cutting one below its floor or more than `max_cut` below
 /// its height, costing no more than `max_cost` (the sum of its cells' cuts): the cells
-/// from the pit to that cell, or `None`.
+/// from the pit to that cell, or whether the search reached `reach` (one that did not
+/// would find nothing further out either).
 pub(super) fn breach_path(
     h: &Heightfield,
     topo: Topology,
@@ -100,18 +102,19 @@ pub(super) fn breach_path(
     reach: usize,
     max_cut: f32,
     max_cost: f32,
-) -> Option<Vec<usize>> {
+) -> Result<Vec<usize>, bool> {
     let z = h.data[pit];
     let mut best: FxHashMap<usize, (f32, u32, usize)> = FxHashMap::default();
     best.insert(pit, (0.0, 0, usize::MAX)); // cost, steps, from
     let mut heap = BinaryHeap::from([Reverse((Total(0.0), pit))]);
+    let mut reached = false;
     while let Some(Reverse((Total(cost), c))) = heap.pop() {
         let (cc, steps, _) = best[&c];
         if cost > cc {
             continue;
         }
         if cost > max_cost {
-            return None;
+            return Err(reached);
         }
         let line = z - FALL_PER_CELL * steps as f32;
         if c != pit && (h.data[c] < line || topo.is_outlet(c)) {
@@ -125,11 +128,15 @@ pub(super) fn breach_path(
                 at = from;
             }
             path.reverse();
-            return Some(path);
+            return Ok(path);
         }
         for j in topo.neighbours(c) {
             let (dx, dy) = topo.offset(pit, j);
-            if floor.at(j) == f32::INFINITY || !h.data[j].is_finite() || dx.abs().max(dy.abs()) as usize > reach {
+            if dx.abs().max(dy.abs()) as usize > reach {
+                reached = true;
+                continue;
+            }
+            if floor.at(j) == f32::INFINITY || !h.data[j].is_finite() {
                 continue;
             }
             let next_line = z - FALL_PER_CELL * (steps + 1) as f32;
@@ -146,5 +153,5 @@ pub(super) fn breach_path(
             }
         }
     }
-    None
+    Err(reached)
 }

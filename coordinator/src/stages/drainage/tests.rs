@@ -53,6 +53,62 @@ fn a_dammed_valley_is_breached_through_the_dam_with_few_cells() {
     assert!(raised <= s.cells_raised && s.cells_raised <= fill_cells(32), "{raised} cells raised: {s:?}");
 }
 
+/// A hole 3 cells across and 600 m deep sunk in a plateau (tilted 0.01 m a cell)
+/// 40 cells from its rim, beyond which the ground falls 10 m a cell.
+fn hole_in_a_plateau() -> Heightfield {
+    let (w, hh) = (120usize, 120usize);
+    let plateau = |x: f32, y: f32| {
+        let rim = (x - 60.0).abs().max((y - 60.0).abs());
+        if rim < 40.0 {
+            1500.0
+        } else {
+            1500.0 - 10.0 * (rim - 40.0)
+        }
+    };
+    Grid::from_vec(
+        w,
+        hh,
+        (0..w * hh)
+            .map(|i| {
+                let (x, y) = ((i % w) as f32, (i / w) as f32);
+                let hole = (x - 60.0).abs() <= 1.0 && (y - 60.0).abs() <= 1.0;
+                plateau(x, y) + 0.01 * (x + y) - if hole { 600.0 } else { 0.0 }
+            })
+            .collect(),
+    )
+}
+
+#[test]
+fn a_trench_gives_way_to_a_larger_filled_bottom() {
+    // at the output level the hole's 4-cell bottom is filled first, and the breach
+    // from there would be a trench 40 cells long cutting hundreds of metres; filled
+    // with the plateau cells beside it (64 cells), the breach from its floor runs
+    // down the plateau's tilt and cuts almost nothing
+    let mut h = hole_in_a_plateau();
+    let before = h.clone();
+    let keep = vec![f32::NEG_INFINITY; h.data.len()];
+    let s = breach_depressions(&mut h, &keep, 32, Hybrid::FillThenBreach);
+    assert_eq!(s.left, 0, "{s:?}");
+    assert!(s.max_cut_m < 1.0 && s.cells_lowered_over_10m == 0, "{s:?}");
+    assert!(s.cells_raised >= 9 && s.cells_raised <= 16 * fill_cells(32), "{s:?}");
+    // the hole came up to the plateau, and nothing else moved by more than a metre
+    for (i, (a, b)) in h.data.iter().zip(&before.data).enumerate() {
+        let (x, y) = ((i % 120) as i64, (i / 120) as i64);
+        if (x - 60).abs() <= 1 && (y - 60).abs() <= 1 {
+            assert!(*a > 1499.0, "({x},{y}): {a}");
+        } else {
+            assert!((a - b).abs() < 1.0, "({x},{y}): {b} -> {a}");
+        }
+    }
+    assert_eq!(drainage_shares(&h, MIN_DEPTH_M).sink_share, 0.0);
+    // where the fill would cover a sketched valley's checked side, the breach stays
+    let mut h = hole_in_a_plateau();
+    let mut floor = keep.clone();
+    floor[60 * 120 + 61] = 0.0;
+    let s = breach_depressions(&mut h, &floor, 32, Hybrid::FillThenBreach);
+    assert!(s.max_cut_m > 100.0 && s.cells_raised <= fill_cells(32), "{s:?}");
+}
+
 #[test]
 fn a_coarse_level_breaches_a_long_lake_and_fills_a_deep_hole() {
     // a coarse level's conditioning: the dam's lake runs far up the valley, so the
@@ -65,29 +121,9 @@ fn a_coarse_level_breaches_a_long_lake_and_fills_a_deep_hole() {
     assert_eq!((s.breached, s.left, s.bottoms_filled, s.cells_raised), (1, 0, 0, 0), "{s:?}");
     assert!(h.data.iter().zip(&before.data).all(|(a, b)| a <= b));
     assert_eq!(drainage_shares(&h, MIN_DEPTH_M).sink_share, 0.0);
-    // a hole 3 cells across and 600 m deep sunk in a plateau 40 cells from its rim:
-    // a breach would be a 40-cell trench hundreds of metres deep; the hole is filled
-    // to the plateau instead, nothing lowered
-    let (w, hh) = (120usize, 120usize);
-    let plateau = |x: f32, y: f32| {
-        let rim = (x - 60.0).abs().max((y - 60.0).abs());
-        if rim < 40.0 {
-            1500.0
-        } else {
-            1500.0 - 10.0 * (rim - 40.0)
-        }
-    };
-    let mut h: Heightfield = Grid::from_vec(
-        w,
-        hh,
-        (0..w * hh)
-            .map(|i| {
-                let (x, y) = ((i % w) as f32, (i / w) as f32);
-                let hole = (x - 60.0).abs() <= 1.0 && (y - 60.0).abs() <= 1.0;
-                plateau(x, y) + 0.01 * (x + y) - if hole { 600.0 } else { 0.0 }
-            })
-            .collect(),
-    );
+    // the hole in the plateau: a breach would be a 40-cell trench hundreds of metres
+    // deep; the hole is filled to the plateau instead, nothing lowered
+    let mut h = hole_in_a_plateau();
     let before = h.clone();
     let keep = vec![f32::NEG_INFINITY; h.data.len()];
     let s = breach_depressions(&mut h, &keep, 32, Hybrid::BreachOrFill);
@@ -223,7 +259,7 @@ fn a_pit_s_own_flood_finds_its_depth() {
     let h = dammed();
     let level = water_levels(&h);
     let topo = Topology::plain(&h);
-    let (_, pit, depth) = pits(&h, topo)[0];
+    let (_, pit, depth) = pits(&h, topo).0[0];
     assert!((local_depth(&h, topo, pit, 1 << 20) - depth).abs() < 1e-3, "the dam's lake: {depth} m");
     assert!((level[pit] - h.data[pit] - depth).abs() < 1e-3);
     // a flood stopped early has found at most the depth
