@@ -208,7 +208,9 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floor: &[f32], patch: usize, h
     let (w, hh) = (h.width, h.height);
     // the first pass floods the whole terrain; a later pass takes every cell without a
     // lower neighbour, each with its depth from a flood out of that cell alone
-    let (mut pits, water) = pits(h, topo);
+    // the water levels serve the first pass's trenches only (a canvas's worth of
+    // memory, let go after it)
+    let (mut pits, mut water) = pits(h, topo);
     stats.depressions = pits.len();
     for pass in 0..PASSES {
         let mut breached = 0;
@@ -347,6 +349,7 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floor: &[f32], patch: usize, h
                 None => left += 1,
             }
         }
+        water = Vec::new();
         stats.breached += breached;
         stats.left = left;
         if breached == 0 {
