@@ -1,17 +1,17 @@
 //! Synthesis by levels (Lefebvre and Hoppe 2005's pyramid; texture-synthesis's image
-//! pyramid; seed 003's coarse-to-fine solve): on a large output, the whole job is
-//! first run at a coarser level — the sketch and the exemplars downsampled by
-//! [`FACTOR`], the same stages (large-scale target, feature placement, hole filling,
-//! breaching or filling its depressions, `drainage::Hybrid::BreachOrFill`; no sketch
-//! fit, below) on a canvas [`FACTOR`] times smaller each way,
-//! the filled terrain held to the target above a few patches (`large_scale::anchor`)
-//! — and the coarse terrain then becomes the surface every patch of the output level
-//! is merged on (`BaseSurface::coarse_terrain`): each patch keeps only its detail below a
-//! Gaussian of σ = `DETAIL_BAND` coarse cells, the coarse terrain under the same blur
-//! gives everything larger — the two bands of a Laplacian pyramid, so the output's
-//! spectrum is the exemplars' at both scales (with the patches' whole relief about a
-//! plane on the coarse terrain instead, the 8-to-32-cell band held both levels' power
-//! and the roughness ratio fell to 0.5 on a 4096² job).
+//! pyramid; seed 003's coarse-to-fine solve): on a large output, the whole job is first
+//! run at a coarser level — the sketch and the exemplars downsampled by [`FACTOR`], the
+//! same stages (large-scale target, feature placement, hole filling, breaching or
+//! filling its depressions, `drainage::Hybrid::BreachOrFill`; no sketch fit, below) on
+//! a canvas [`FACTOR`] times smaller each way, the filled terrain held to the target
+//! above a few patches (`large_scale::anchor`) — and the coarse terrain then becomes
+//! the surface every patch of the output level is merged on
+//! (`BaseSurface::coarse_terrain`): each patch keeps only its detail below a Gaussian
+//! of σ = `DETAIL_BAND` coarse cells, the coarse terrain under the same blur gives
+//! everything larger — the two bands of a Laplacian pyramid, so the output's spectrum
+//! is the exemplars' at both scales (with the patches' whole relief about a plane on
+//! the coarse terrain instead, the 8-to-32-cell band held both levels' power and the
+//! roughness ratio fell to 0.5 on a 4096² job).
 //!
 //! **Why.** A patch is 64 cells; on a 4096² sketch a 40-cell ridge stroke asks for a
 //! landform four times wider, and the smooth target of `large_scale` alone gives it

@@ -54,16 +54,16 @@
 //! there too, the same rule raised 16% of a 4096² massif's cells and left 5% of them
 //! flat (a step under 0.5 m a cell) against 1.3%, and took six times as long.
 //!
-//! **The cut** ([`carve`], along a [`gully`]) is a smooth bump subtracted from the terrain, not a surface
-//! the terrain is clipped to: each path cell must come down onto the line by its drop,
-//! and the cells around it come down by that drop times `(1 − u²)²` over a half-width
-//! at which the gully's walls are no steeper than [`WALL_PER_MEDIAN_SLOPE`] times the
-//! terrain's median slope, never below the line they drain to. So the terrain's own
-//! relief stays on the gully's floor and walls — a valley through the sill. (Clipping
-//! to a smooth gully surface instead gave every cut a smooth floor and a kink at its
-//! rim: the roughness ratio, power at 2–6 cells over 8–32, rose from 1.03 to 1.6 on a
-//! 512² sketch; subtracting the bump without the floor at the line made new pits
-//! beside the path, 2,566 in the second pass against 642.)
+//! **The cut** ([`carve`], along a [`gully`]) is a smooth bump subtracted from the
+//! terrain, not a surface the terrain is clipped to: each path cell must come down onto
+//! the line by its drop, and the cells around it come down by that drop times
+//! `(1 − u²)²` over a half-width at which the gully's walls are no steeper than
+//! [`WALL_PER_MEDIAN_SLOPE`] times the terrain's median slope, never below the line
+//! they drain to. So the terrain's own relief stays on the gully's floor and walls — a
+//! valley through the sill. (Clipping to a smooth gully surface instead gave every cut
+//! a smooth floor and a kink at its rim: the roughness ratio, power at 2–6 cells over
+//! 8–32, rose from 1.03 to 1.6 on a 512² sketch; subtracting the bump without the floor
+//! at the line made new pits beside the path, 2,566 in the second pass against 642.)
 //!
 //! It never cuts through a sketched ridge crest (the centre lines, one cell each side),
 //! so a basin the sketch closes with ridges stays closed; it keeps the cells where a
@@ -266,11 +266,8 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floor: &[f32], patch: usize, h
                 [true, false].into_iter().find_map(|held| {
                     let floor = Floors { floor, held };
                     let near = breach_path(h, topo, pit, floor, SEARCH_PATCHES * patch, max_cut, max_cost);
-                    let far = |reached| match reached {
-                        true => breach_path(h, topo, pit, floor, FAR_SEARCH_PATCHES * patch, max_cut, max_cost),
-                        false => Err(false),
-                    };
-                    near.or_else(far).ok().map(|p| (p, floor))
+                    near.or_else(|| breach_path(h, topo, pit, floor, FAR_SEARCH_PATCHES * patch, max_cut, max_cost))
+                        .map(|p| (p, floor))
                 })
             };
             let search = |h: &Heightfield, pit: usize| search_below(h, pit, max_cost);
@@ -290,8 +287,8 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floor: &[f32], patch: usize, h
             // filled bottom: the depression filled from its pit, other basins behind
             // its sill with it, up to 16 and 256 times as many cells and breached from
             // there; whichever changes the terrain least (metres times cells) is kept
-            let deepest = cut.as_ref().map_or(0.0, |c| c.iter().map(|e| e.1).fold(0f32, f32::max));
-            if hybrid == Hybrid::FillThenBreach && pass == 0 && steps > patch / 2 && deepest > TRENCH_DROP_M {
+            let trench = |c: &Option<Vec<(usize, f32)>>| c.as_ref().is_some_and(|c| c.iter().any(|e| e.1 > TRENCH_DROP_M));
+            if hybrid == Hybrid::FillThenBreach && pass == 0 && steps > patch / 2 && trench(&cut) {
                 let mut best = (filled.as_ref().map_or(0.0, |f| f.volume) + cut.as_ref().map_or(0.0, |c| cut_volume(c)), None);
                 if let Some(f) = &filled {
                     f.undo(h);

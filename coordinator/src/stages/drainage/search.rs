@@ -92,8 +92,7 @@ pub(super) fn has_way_down(h: &Heightfield, topo: Topology, pit: usize) -> bool 
 /// the border), within `reach` cells of it, never through a cell that may not be cut
 /// (`floor` infinite), never cutting one below its floor or more than `max_cut` below
 /// its height, costing no more than `max_cost` (the sum of its cells' cuts): the cells
-/// from the pit to that cell, or whether the search reached `reach` (one that did not
-/// would find nothing further out either).
+/// from the pit to that cell, or `None`.
 pub(super) fn breach_path(
     h: &Heightfield,
     topo: Topology,
@@ -102,19 +101,18 @@ pub(super) fn breach_path(
     reach: usize,
     max_cut: f32,
     max_cost: f32,
-) -> Result<Vec<usize>, bool> {
+) -> Option<Vec<usize>> {
     let z = h.data[pit];
     let mut best: FxHashMap<usize, (f32, u32, usize)> = FxHashMap::default();
     best.insert(pit, (0.0, 0, usize::MAX)); // cost, steps, from
     let mut heap = BinaryHeap::from([Reverse((Total(0.0), pit))]);
-    let mut reached = false;
     while let Some(Reverse((Total(cost), c))) = heap.pop() {
         let (cc, steps, _) = best[&c];
         if cost > cc {
             continue;
         }
         if cost > max_cost {
-            return Err(reached);
+            return None;
         }
         let line = z - FALL_PER_CELL * steps as f32;
         if c != pit && (h.data[c] < line || topo.is_outlet(c)) {
@@ -128,15 +126,11 @@ pub(super) fn breach_path(
                 at = from;
             }
             path.reverse();
-            return Ok(path);
+            return Some(path);
         }
         for j in topo.neighbours(c) {
             let (dx, dy) = topo.offset(pit, j);
-            if dx.abs().max(dy.abs()) as usize > reach {
-                reached = true;
-                continue;
-            }
-            if floor.at(j) == f32::INFINITY || !h.data[j].is_finite() {
+            if floor.at(j) == f32::INFINITY || !h.data[j].is_finite() || dx.abs().max(dy.abs()) as usize > reach {
                 continue;
             }
             let next_line = z - FALL_PER_CELL * (steps + 1) as f32;
@@ -153,5 +147,5 @@ pub(super) fn breach_path(
             }
         }
     }
-    Err(reached)
+    None
 }
