@@ -80,6 +80,33 @@ pub(super) fn held_radius(h: &Heightfield, topo: Topology, floor: Floors, at: (i
     best.max(GULLY_RADIUS as i64)
 }
 
+/// The deepest a path cell at `at` may be cut while the narrowest gully's walls
+/// ([`GULLY_RADIUS`]) leave every held cell beside it, and itself, above its floor
+/// (infinite with none near, or with floors not held).
+pub(super) fn max_held_drop(h: &Heightfield, topo: Topology, floor: Floors, at: (i64, i64)) -> f32 {
+    if !floor.held {
+        return f32::INFINITY;
+    }
+    let r = GULLY_RADIUS as i64;
+    let span = ((r + 1) * (r + 1)) as f32;
+    let mut most = f32::INFINITY;
+    for dy in -r..=r {
+        for dx in -r..=r {
+            let d2 = dx * dx + dy * dy;
+            if d2 >= (r + 1) * (r + 1) {
+                continue;
+            }
+            let Some(j) = topo.at(at.0 + dx, at.1 + dy) else { continue };
+            let f = floor.at(j);
+            if f.is_finite() {
+                let u = 1.0 - d2 as f32 / span;
+                most = most.min((h.data[j] - f).max(0.0) / (u * u));
+            }
+        }
+    }
+    most
+}
+
 /// The cut along a breach path, each cell once with how far it comes down (applied by
 /// [`carve`]): a smooth cut, each path cell after the
 /// pit must come down onto the line falling from the pit to the outlet (the outlet too

@@ -23,7 +23,9 @@
 //! joined level plus a fall of [`FALL_PER_CELL`] per step from the cell the water
 //! leaves by (the last cell to join; where the water spills, the joined cells beside
 //! the spill cell), so the filled floor drains there and the breach, if one is still
-//! needed, starts from that cell. Nothing is lowered. Sequential, ties broken by
+//! needed, starts from that cell. The flood also stops before the level would pass a
+//! joined cell's ceiling (a sketched valley's centre-line cell, which must stay below
+//! its checked sides: `SketchFloors::ceiling`). Nothing is lowered. Sequential, ties broken by
 //! cell index: the same bytes on every thread count.
 
 use super::search::FALL_PER_CELL;
@@ -72,15 +74,26 @@ impl Filled {
 
 /// Fills the bottom of the depression whose deepest cell is `pit` (see the module
 /// header), at most `max_cells` cells.
-pub(super) fn fill_bottom(h: &mut Heightfield, topo: Topology, pit: usize, max_cells: usize) -> Filled {
-    fill_from(h, topo, pit, max_cells, None)
+pub(super) fn fill_bottom(h: &mut Heightfield, topo: Topology, pit: usize, max_cells: usize, ceiling: &Ceiling) -> Filled {
+    fill_from(h, topo, pit, max_cells, None, ceiling)
 }
+
+/// How high a fill may raise a cell (`SketchFloors::ceiling`): cells not listed, as
+/// high as the fill goes.
+pub(super) type Ceiling = FxHashMap<usize, f32>;
 
 /// [`fill_bottom`]; with `water` (the terrain's water levels, depressions filled), the
 /// water spills only to lower ground outside the depression: the other basins behind
 /// the depression's sill that it reaches are filled with it (a compound depression
 /// filled from its deepest pit).
-pub(super) fn fill_from(h: &mut Heightfield, topo: Topology, pit: usize, max_cells: usize, water: Option<&[f32]>) -> Filled {
+pub(super) fn fill_from(
+    h: &mut Heightfield,
+    topo: Topology,
+    pit: usize,
+    max_cells: usize,
+    water: Option<&[f32]>,
+    ceiling: &Ceiling,
+) -> Filled {
     let z0 = h.data[pit];
     let mut joined: Vec<usize> = Vec::new();
     let mut seen: FxHashMap<usize, ()> = FxHashMap::default();
@@ -88,6 +101,7 @@ pub(super) fn fill_from(h: &mut Heightfield, topo: Topology, pit: usize, max_cel
     let mut heap = BinaryHeap::from([Reverse((Total(z0), pit))]);
     let mut level = z0;
     let mut spill = None;
+    let mut lowest_ceiling = f32::INFINITY;
     while let Some(Reverse((Total(v), c))) = heap.pop() {
         if v < level && !water.is_some_and(|w| w[c] > v) {
             // lower ground outside: the water leaves the joined cells here
@@ -97,6 +111,14 @@ pub(super) fn fill_from(h: &mut Heightfield, topo: Topology, pit: usize, max_cel
         if joined.len() == max_cells || topo.is_outlet(c) {
             break;
         }
+        // no joined cell may end above its ceiling (a sketched valley's floor above
+        // its sides; one above it already is not held): the fill stops short, and
+        // the breach starts from there
+        let cap = ceiling.get(&c).filter(|&&k| k >= v).map_or(lowest_ceiling, |&k| lowest_ceiling.min(k));
+        if !joined.is_empty() && level.max(v) > cap {
+            break;
+        }
+        lowest_ceiling = cap;
         level = level.max(v);
         joined.push(c);
         for j in topo.neighbours(c) {
@@ -164,7 +186,7 @@ mod tests {
         let before = t.clone();
         let pit = 15 * 32 + 15;
         let topo = Topology::plain(&t);
-        let f = fill_bottom(&mut t, topo, pit, 16);
+        let f = fill_bottom(&mut t, topo, pit, 16, &Ceiling::default());
         assert!(f.drains, "{f:?}");
         let moved = |by: f32| t.data.iter().zip(&before.data).filter(|(a, b)| **a - **b > by).count();
         assert_eq!(moved(1.0), 4, "the pit's four cells came up");
@@ -189,7 +211,7 @@ mod tests {
         let before = t.clone();
         let pit = 24 * 48 + 24;
         let topo = Topology::plain(&t);
-        let f = fill_bottom(&mut t, topo, pit, 16);
+        let f = fill_bottom(&mut t, topo, pit, 16, &Ceiling::default());
         assert!(!f.drains && f.raised.len() <= 16 && f.raised.len() >= 12, "{f:?}");
         assert!(f.rise > 5.0 && f.rise < 40.0, "{f:?}");
         // the filled floor drains to the new pit: no filled cell lies below it
@@ -201,5 +223,29 @@ mod tests {
         // undone, the terrain is as it was
         f.undo(&mut t);
         assert_eq!(t.data, before.data);
+    }
+
+    #[test]
+    fn a_fill_stops_before_it_lifts_a_valley_floor_over_its_ceiling() {
+        // the same bowl, a sketched valley's centre-line cell beside its pit whose
+        // checked sides stand 3 m above it: the 16-cell fill would lift it further
+        let bowl = |x: usize, y: usize| {
+            let r = ((x as f32 - 24.0).powi(2) + (y as f32 - 24.0).powi(2)).sqrt();
+            (40.0 * (1.0 - r / 6.0)).max(0.0)
+        };
+        let (pit, valley) = (24 * 48 + 24, 25 * 48 + 24);
+        let topo = Topology::plain(&plane_with(48, 48, bowl));
+        let free = fill_bottom(&mut plane_with(48, 48, bowl), topo, pit, 16, &Ceiling::default());
+        let mut t = plane_with(48, 48, bowl);
+        let before = t.clone();
+        let free_level = before.data[pit] + free.rise;
+        assert!(free.raised.iter().any(|e| e.0 == valley) && free_level > before.data[valley] + 3.0, "{free:?}");
+        let ceiling = Ceiling::from_iter([(valley, before.data[valley] + 3.0)]);
+        let f = fill_bottom(&mut t, topo, pit, 16, &ceiling);
+        assert!(t.data[valley] <= before.data[valley] + 3.0, "{} over {}", t.data[valley], before.data[valley] + 3.0);
+        // the fill went as far as the ceiling let it: something came up, short of
+        // the free fill, and the breach starts from there
+        assert!(!f.drains && !f.raised.is_empty() && f.rise < free.rise, "{f:?}");
+        assert!(t.data.iter().zip(&before.data).all(|(a, b)| a >= b));
     }
 }

@@ -1,11 +1,16 @@
 //! The sketch's floors under a breach: how low each cell may be cut, so a breach never
 //! goes through a sketched ridge crest and, where it can, never leaves a sketched
-//! valley's checked side below the valley's floor.
+//! valley's checked side below the valley's floor; and its ceilings over a fill: how
+//! high a sketched valley's centre-line cell may be filled, so a filled bottom never
+//! lifts the valley's floor over its sides.
 
+use super::carve::GULLY_RADIUS;
+use super::topology::Topology;
 use crate::stages::sketch::{cross_section, SketchFeatures};
 use ridgeline_terrain::feature_extraction::FeatureGraph;
 use ridgeline_terrain::grid::Heightfield;
 use ridgeline_terrain::FeatureKind;
+use rustc_hash::FxHashMap;
 
 /// How low a breach may cut each cell, from the sketch (`f32::NEG_INFINITY`: as low as
 /// the drainage needs): every sketched ridge centre-line cell and its neighbours are
@@ -15,7 +20,7 @@ use ridgeline_terrain::FeatureKind;
 /// centre-line cell, so a gully draining a pit beside a sketched valley does not leave
 /// the valley's side lower than its floor. (Breaching without these floors turned
 /// 2% of a traced sketch's valley cells from fitting to not fitting: 0.991 to 0.967.)
-pub fn sketch_floors(sk: &SketchFeatures, h: &Heightfield, patch: usize) -> Vec<f32> {
+pub fn sketch_floors(sk: &SketchFeatures, h: &Heightfield, patch: usize) -> SketchFloors {
     use rayon::prelude::*;
     let (w, hh) = (sk.width, sk.height);
     let mut out = vec![f32::NEG_INFINITY; w * hh];
@@ -30,6 +35,15 @@ pub fn sketch_floors(sk: &SketchFeatures, h: &Heightfield, patch: usize) -> Vec<
             let floor = h.get(cs.x, cs.y) + FLOOR_MARGIN_M;
             let at = |side: usize, t: f32| cs.at(side, t * cs.reach[side]);
             (floor, [at(0, 0.5), at(0, 1.0), at(1, 0.5), at(1, 1.0)])
+        })
+        .collect();
+    // each centre-line cell's ceiling: its lowest checked side, less the margin
+    let ceiling = pixels
+        .iter()
+        .zip(&sides)
+        .map(|(&p, (_, points))| {
+            let low = points.iter().map(|&(x, y)| h.sample_bilinear(x, y)).fold(f32::INFINITY, f32::min);
+            (p as usize, low - FLOOR_MARGIN_M)
         })
         .collect();
     for (floor, points) in sides {
@@ -56,21 +70,75 @@ pub fn sketch_floors(sk: &SketchFeatures, h: &Heightfield, patch: usize) -> Vec<
     };
     set_along(valleys, f32::NEG_INFINITY);
     set_along(sk.graph(FeatureKind::Ridge), f32::INFINITY);
-    out
+    SketchFloors { floor: out, ceiling }
+}
+
+/// What the sketch allows the conditioning ([`sketch_floors`]).
+#[derive(Debug, Clone, Default)]
+pub struct SketchFloors {
+    /// How low a breach may cut each cell.
+    pub floor: Vec<f32>,
+    /// How high a filled bottom may raise each sketched valley's centre-line cell:
+    /// to its lowest checked side (less [`FLOOR_MARGIN_M`]), so the fill never lifts
+    /// the valley's floor over its sides. Cells not listed may rise as far as a fill
+    /// takes them.
+    pub ceiling: FxHashMap<usize, f32>,
+}
+
+impl From<Vec<f32>> for SketchFloors {
+    /// Floors alone: no ceilings.
+    fn from(floor: Vec<f32>) -> Self {
+        SketchFloors { floor, ceiling: FxHashMap::default() }
+    }
 }
 
 /// How far above a valley's centre-line cell its checked sides are held, metres.
 const FLOOR_MARGIN_M: f32 = 0.1;
 
 /// The floors one breach keeps to: all of them (`held`), or only the crests (a
-/// depression with no way out above the valleys' floors).
+/// depression with no way out above the valleys' floors). Held, the search first
+/// keeps the narrowest gully's walls off them too (`spare`: no path cell is cut so
+/// deep that a bump of [`GULLY_RADIUS`](super::GULLY_RADIUS) would take a held cell
+/// beside it below its floor), then, with no such way out, only the path itself.
 #[derive(Clone, Copy)]
 pub(super) struct Floors<'a> {
     pub(super) floor: &'a [f32],
     pub(super) held: bool,
+    pub(super) spare: bool,
+    /// One bit per cell: a finite floor lies within the narrowest gully's reach
+    /// ([`near_held`]), so most cells skip the walls' check.
+    pub(super) near: &'a [u64],
+}
+
+/// The cells within the narrowest gully's reach (a disc of [`GULLY_RADIUS`] + 1,
+/// exclusive) of a cell with a finite floor, one bit each.
+pub(super) fn near_held(floor: &[f32], topo: Topology) -> Vec<u64> {
+    let mut bits = vec![0u64; floor.len().div_ceil(64)];
+    let r = GULLY_RADIUS as i64;
+    for (c, f) in floor.iter().enumerate() {
+        if !f.is_finite() {
+            continue;
+        }
+        let (x, y) = topo.xy(c);
+        for dy in -r..=r {
+            for dx in -r..=r {
+                if dx * dx + dy * dy < (r + 1) * (r + 1) {
+                    if let Some(j) = topo.at(x + dx, y + dy) {
+                        bits[j / 64] |= 1 << (j % 64);
+                    }
+                }
+            }
+        }
+    }
+    bits
 }
 
 impl Floors<'_> {
+    /// Whether a held floor lies within the narrowest gully's reach of `c`.
+    pub(super) fn near_held(self, c: usize) -> bool {
+        self.near[c / 64] >> (c % 64) & 1 == 1
+    }
+
     pub(super) fn at(self, c: usize) -> f32 {
         match self.floor[c] {
             f if self.held || f == f32::INFINITY => f,

@@ -68,8 +68,11 @@
 //! It never cuts through a sketched ridge crest (the centre lines, one cell each side),
 //! so a basin the sketch closes with ridges stays closed; it keeps the cells where a
 //! sketched valley's cross-section is checked above the valley's floor where it can
-//! (a depression with no other way out is breached through them: draining first; see
-//! [`sketch_floors`]); and it never cuts a cell deeper
+//! (a near way out whose narrowest gully's walls spare them first, then one whose
+//! path alone does; a depression with no other way out is breached through them:
+//! draining first; see [`sketch_floors`]); a filled bottom never lifts a sketched
+//! valley's centre-line cell over its checked sides (its ceiling: the fill stops
+//! short and the breach starts there); and it never cuts a cell deeper
 //! than [`CUT_PER_DEPTH`] times the depression it drains is deep. A depression the
 //! search cannot leave within [`SEARCH_PATCHES`] patches of its pit under those rules
 //! is left as it is and counted; so are depressions shallower than [`MIN_DEPTH_M`]
@@ -93,8 +96,8 @@ use carve::{carve, gully, wall_slope};
 pub use carve::{BIG_CUT_M, GULLY_RADIUS, MAX_GULLY_RADIUS, WALL_PER_MEDIAN_SLOPE};
 use fill::{fill_bottom, fill_from};
 pub use fill::{fill_cells, whole_fill_cells};
-pub use floors::sketch_floors;
 use floors::Floors;
+pub use floors::{sketch_floors, SketchFloors};
 use ridgeline_terrain::grid::Heightfield;
 pub use search::MIN_DEPTH_M;
 use search::{breach_path, has_way_down, local_depth, pits};
@@ -184,10 +187,11 @@ pub fn breach_under_sketch(h: &mut Heightfield, sk: &SketchFeatures, patch: usiz
     }
 }
 
-/// Breaches the depressions of `h` (see the module header); `floor`: how low each
-/// cell may be cut (see [`sketch_floors`]); `patch` sets the search's reach.
-pub fn breach_depressions(h: &mut Heightfield, floor: &[f32], patch: usize, hybrid: Hybrid) -> DrainageStats {
-    breach_on(h, Topology::plain(h), floor, patch, hybrid)
+/// Breaches the depressions of `h` (see the module header); `floors`: how low each
+/// cell may be cut and how high a sketched valley's floor may be filled (see
+/// [`sketch_floors`]); `patch` sets the search's reach.
+pub fn breach_depressions(h: &mut Heightfield, floors: &SketchFloors, patch: usize, hybrid: Hybrid) -> DrainageStats {
+    breach_on(h, Topology::plain(h), floors, patch, hybrid)
 }
 
 /// [`breach_depressions`] on a tileable terrain, taken as a torus: column 0 lies
@@ -198,11 +202,13 @@ pub fn breach_depressions(h: &mut Heightfield, floor: &[f32], patch: usize, hybr
 /// lowest cell as its one outlet instead, nothing is closed on the torus but the
 /// catchment of that cell is a closed basin of the tile: 13.7% of small-range-512
 /// wrapped; with the seams as outlets, 0% of the tile and 1.2% on the torus.)
-pub fn breach_depressions_on_torus(h: &mut Heightfield, floor: &[f32], patch: usize, hybrid: Hybrid) -> DrainageStats {
-    breach_on(h, Topology { w: h.width, h: h.height, wrap: true }, floor, patch, hybrid)
+pub fn breach_depressions_on_torus(h: &mut Heightfield, floors: &SketchFloors, patch: usize, hybrid: Hybrid) -> DrainageStats {
+    breach_on(h, Topology { w: h.width, h: h.height, wrap: true }, floors, patch, hybrid)
 }
 
-fn breach_on(h: &mut Heightfield, topo: Topology, floor: &[f32], patch: usize, hybrid: Hybrid) -> DrainageStats {
+fn breach_on(h: &mut Heightfield, topo: Topology, floors: &SketchFloors, patch: usize, hybrid: Hybrid) -> DrainageStats {
+    let (floor, ceiling) = (&floors.floor[..], &floors.ceiling);
+    let near = floors::near_held(floor, topo);
     let mut stats = DrainageStats::default();
     let wall = wall_slope(h);
     let (w, hh) = (h.width, h.height);
@@ -229,7 +235,7 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floor: &[f32], patch: usize, h
             // MIN_DEPTH_M, and a closed floor left at a valley's end would keep its whole
             // catchment from the border)
             let first_pit = pit;
-            let mut filled = (hybrid == Hybrid::FillThenBreach).then(|| fill_bottom(h, topo, pit, fill_cells(patch)));
+            let mut filled = (hybrid == Hybrid::FillThenBreach).then(|| fill_bottom(h, topo, pit, fill_cells(patch), ceiling));
             match &filled {
                 // filled to the depression's own spill level: it drains
                 Some(f) if f.drains && f.rise >= depth - SPILL_TOLERANCE_M => {
@@ -255,7 +261,7 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floor: &[f32], patch: usize, h
             // searched for only while it would cut less than the fill raises
             let whole = match hybrid {
                 Hybrid::BreachOrFill => {
-                    let f = fill_bottom(h, topo, pit, whole_fill_cells(patch));
+                    let f = fill_bottom(h, topo, pit, whole_fill_cells(patch), ceiling);
                     f.undo(h);
                     f.drains.then_some(f.volume)
                 }
@@ -263,11 +269,16 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floor: &[f32], patch: usize, h
             };
             let max_cost = whole.map_or(f32::INFINITY, |v| v as f32);
             let search_below = |h: &Heightfield, pit: usize, max_cost: f32| {
-                [true, false].into_iter().find_map(|held| {
-                    let floor = Floors { floor, held };
+                // (held, spare, far): the gully's walls kept off the held sides on a
+                // near way out only (a far search that finds none explores the whole
+                // reach)
+                [(true, true, false), (true, false, true), (false, false, true)].into_iter().find_map(|(held, spare, far)| {
+                    let floor = Floors { floor, held, spare, near: &near };
                     let near = breach_path(h, topo, pit, floor, SEARCH_PATCHES * patch, max_cut, max_cost);
-                    near.or_else(|| breach_path(h, topo, pit, floor, FAR_SEARCH_PATCHES * patch, max_cut, max_cost))
-                        .map(|p| (p, floor))
+                    near.or_else(|| {
+                        far.then(|| breach_path(h, topo, pit, floor, FAR_SEARCH_PATCHES * patch, max_cut, max_cost)).flatten()
+                    })
+                    .map(|p| (p, floor))
                 })
             };
             let search = |h: &Heightfield, pit: usize| search_below(h, pit, max_cost);
@@ -294,7 +305,7 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floor: &[f32], patch: usize, h
                     f.undo(h);
                 }
                 for cells in [16, 256].map(|k| k * fill_cells(patch)) {
-                    let f = fill_from(h, topo, first_pit, cells, Some(&water));
+                    let f = fill_from(h, topo, first_pit, cells, Some(&water), ceiling);
                     // a fill over a sketched valley's checked side would flatten the
                     // valley: not an option
                     let over_valley = f.raised.iter().any(|&(c, _)| floor[c].is_finite());
@@ -314,9 +325,9 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floor: &[f32], patch: usize, h
                 }
                 match best.1 {
                     // the small bottom it was, put back
-                    None => filled = filled.map(|_| fill_bottom(h, topo, first_pit, fill_cells(patch))),
+                    None => filled = filled.map(|_| fill_bottom(h, topo, first_pit, fill_cells(patch), ceiling)),
                     Some((cells, c)) => {
-                        let f = fill_from(h, topo, first_pit, cells, Some(&water));
+                        let f = fill_from(h, topo, first_pit, cells, Some(&water), ceiling);
                         if c.is_none() {
                             stats.keep_fill(&f, true);
                             continue;
@@ -331,7 +342,7 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floor: &[f32], patch: usize, h
             // the whole fill where it raises less than the gully cuts
             let lowered = cut.as_ref().map_or(f64::INFINITY, |c| cut_volume(c));
             if whole.is_some_and(|v| v <= lowered) {
-                let f = fill_bottom(h, topo, first_pit, whole_fill_cells(patch));
+                let f = fill_bottom(h, topo, first_pit, whole_fill_cells(patch), ceiling);
                 stats.keep_fill(&f, true);
                 continue;
             }

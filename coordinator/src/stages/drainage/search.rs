@@ -2,6 +2,7 @@
 //! one's least-cost way out (Lindsay 2016's breach path, a Dijkstra search whose step
 //! costs the height a cell must lose to lie on a line descending from the pit).
 
+use super::carve::max_held_drop;
 use super::floors::Floors;
 use super::topology::Topology;
 use crate::solvers::hydrology::water_levels;
@@ -136,6 +137,9 @@ pub(super) fn breach_path(
             let next_line = z - FALL_PER_CELL * (steps + 1) as f32;
             let cut = (h.data[j] - next_line).max(0.0);
             if cut > max_cut || (cut > 0.0 && next_line < floor.at(j)) {
+                continue;
+            }
+            if cut > 0.0 && floor.spare && floor.near_held(j) && cut > max_held_drop(h, topo, floor, topo.xy(j)) + 1.0 {
                 continue;
             }
             // the height the cell must lose, and a little per step so shorter paths win ties

@@ -33,6 +33,11 @@ impl Topology {
         }
     }
 
+    /// The cell's coordinates.
+    pub(super) fn xy(self, c: usize) -> (i64, i64) {
+        ((c % self.w) as i64, (c / self.w) as i64)
+    }
+
     pub(super) fn neighbours(self, c: usize) -> impl Iterator<Item = usize> {
         let (x, y) = ((c % self.w) as i64, (c / self.w) as i64);
         D8.iter().filter_map(move |&(dx, dy)| self.at(x + dx, y + dy))
