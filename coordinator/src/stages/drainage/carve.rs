@@ -2,16 +2,13 @@
 //! its walls need to stay no steeper than a few times the terrain's median slope, and
 //! narrower beside a held valley side (see the module header of `drainage`).
 
-use super::floors::Floors;
+use super::floors::{Floors, GULLY_RADIUS};
 use super::search::FALL_PER_CELL;
 use super::topology::Topology;
 use ridgeline_terrain::grid::Heightfield;
 
 /// A cut deeper than this (metres) is counted apart in `DrainageStats`.
 pub const BIG_CUT_M: f32 = 10.0;
-
-/// The narrowest half-width of a breach gully beside its path, cells.
-pub const GULLY_RADIUS: usize = 3;
 
 /// The widest a gully's half-width grows, cells.
 pub const MAX_GULLY_RADIUS: usize = 24;
@@ -78,33 +75,6 @@ pub(super) fn held_radius(h: &Heightfield, topo: Topology, floor: Floors, at: (i
         }
     }
     best.max(GULLY_RADIUS as i64)
-}
-
-/// The deepest a path cell at `at` may be cut while the narrowest gully's walls
-/// ([`GULLY_RADIUS`]) leave every held cell beside it, and itself, above its floor
-/// (infinite with none near, or with floors not held).
-pub(super) fn max_held_drop(h: &Heightfield, topo: Topology, floor: Floors, at: (i64, i64)) -> f32 {
-    if !floor.held {
-        return f32::INFINITY;
-    }
-    let r = GULLY_RADIUS as i64;
-    let span = ((r + 1) * (r + 1)) as f32;
-    let mut most = f32::INFINITY;
-    for dy in -r..=r {
-        for dx in -r..=r {
-            let d2 = dx * dx + dy * dy;
-            if d2 >= (r + 1) * (r + 1) {
-                continue;
-            }
-            let Some(j) = topo.at(at.0 + dx, at.1 + dy) else { continue };
-            let f = floor.at(j);
-            if f.is_finite() {
-                let u = 1.0 - d2 as f32 / span;
-                most = most.min((h.data[j] - f).max(0.0) / (u * u));
-            }
-        }
-    }
-    most
 }
 
 /// The cut along a breach path, each cell once with how far it comes down (applied by

@@ -4,7 +4,6 @@
 //! high a sketched valley's centre-line cell may be filled, so a filled bottom never
 //! lifts the valley's floor over its sides.
 
-use super::carve::GULLY_RADIUS;
 use super::topology::Topology;
 use crate::stages::sketch::{cross_section, SketchFeatures};
 use ridgeline_terrain::feature_extraction::FeatureGraph;
@@ -110,6 +109,23 @@ pub(super) struct Floors<'a> {
     pub(super) near: &'a [u64],
 }
 
+impl Floors<'_> {
+    /// Whether a held floor lies within the narrowest gully's reach of `c`.
+    pub(super) fn near_held(self, c: usize) -> bool {
+        self.near[c / 64] >> (c % 64) & 1 == 1
+    }
+
+    pub(super) fn at(self, c: usize) -> f32 {
+        match self.floor[c] {
+            f if self.held || f == f32::INFINITY => f,
+            _ => f32::NEG_INFINITY,
+        }
+    }
+}
+
+/// The narrowest half-width of a breach gully beside its path, cells.
+pub const GULLY_RADIUS: usize = 3;
+
 /// The cells within the narrowest gully's reach (a disc of [`GULLY_RADIUS`] + 1,
 /// exclusive) of a cell with a finite floor, one bit each.
 pub(super) fn near_held(floor: &[f32], topo: Topology) -> Vec<u64> {
@@ -133,16 +149,29 @@ pub(super) fn near_held(floor: &[f32], topo: Topology) -> Vec<u64> {
     bits
 }
 
-impl Floors<'_> {
-    /// Whether a held floor lies within the narrowest gully's reach of `c`.
-    pub(super) fn near_held(self, c: usize) -> bool {
-        self.near[c / 64] >> (c % 64) & 1 == 1
+/// The deepest a path cell at `at` may be cut while the narrowest gully's walls
+/// ([`GULLY_RADIUS`]) leave every held cell beside it, and itself, above its floor
+/// (infinite with none near, or with floors not held).
+pub(super) fn max_held_drop(h: &Heightfield, topo: Topology, floor: Floors, at: (i64, i64)) -> f32 {
+    if !floor.held {
+        return f32::INFINITY;
     }
-
-    pub(super) fn at(self, c: usize) -> f32 {
-        match self.floor[c] {
-            f if self.held || f == f32::INFINITY => f,
-            _ => f32::NEG_INFINITY,
+    let r = GULLY_RADIUS as i64;
+    let span = ((r + 1) * (r + 1)) as f32;
+    let mut most = f32::INFINITY;
+    for dy in -r..=r {
+        for dx in -r..=r {
+            let d2 = dx * dx + dy * dy;
+            if d2 >= (r + 1) * (r + 1) {
+                continue;
+            }
+            let Some(j) = topo.at(at.0 + dx, at.1 + dy) else { continue };
+            let f = floor.at(j);
+            if f.is_finite() {
+                let u = 1.0 - d2 as f32 / span;
+                most = most.min((h.data[j] - f).max(0.0) / (u * u));
+            }
         }
     }
+    most
 }

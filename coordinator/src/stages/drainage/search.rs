@@ -2,8 +2,7 @@
 //! one's least-cost way out (Lindsay 2016's breach path, a Dijkstra search whose step
 //! costs the height a cell must lose to lie on a line descending from the pit).
 
-use super::carve::max_held_drop;
-use super::floors::Floors;
+use super::floors::{max_held_drop, Floors};
 use super::topology::Topology;
 use crate::solvers::hydrology::water_levels;
 use crate::solvers::total_order::Total;
