@@ -3,6 +3,16 @@
 //! valley's checked side below the valley's floor; and its ceilings over a fill: how
 //! high a sketched valley's centre-line cell may be filled, so a filled bottom never
 //! lifts the valley's floor over its sides.
+//!
+//! The floors alone held only the path: the gully's walls (at least [`GULLY_RADIUS`]
+//! wide) and the filled bottoms still took a traced sketch's valleys apart, 0.989 of
+//! talaska-1024's valley cells fitting before the conditioning and 0.972 after it.
+//! With the ceilings and a first search whose gully's walls spare the held sides
+//! (`Floors::spare`, on a near way out only, and checked only on the cells
+//! [`near_held`] marks: checked on every cell, the stage took 1.33 s against 0.30 s
+//! on mixed-1024; so, 0.34 s), 0.976; on a 4096² massif sketch 0.984 to 0.993. Capping the walls cell by cell at the
+//! floors instead kept 0.986 but left held cells standing as fins in the gullies
+//! (roughness ratio 0.95 to 1.13).
 
 use super::topology::Topology;
 use crate::stages::sketch::{cross_section, SketchFeatures};
