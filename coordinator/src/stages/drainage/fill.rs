@@ -25,9 +25,10 @@
 //! the spill cell), so the filled floor drains there and the breach, if one is still
 //! needed, starts from that cell. The flood also stops before the level would pass a
 //! joined cell's ceiling (a sketched valley's centre-line cell, which must stay below
-//! its checked sides: `SketchFloors::ceiling`). Nothing is lowered. Sequential, ties broken by
-//! cell index: the same bytes on every thread count.
+//! its checked sides: `SketchFloors::ceiling`). Nothing is lowered. Sequential, ties
+//! broken by cell index: the same bytes on every thread count.
 
+use super::floors::Ceiling;
 use super::search::FALL_PER_CELL;
 use super::topology::Topology;
 use crate::solvers::total_order::Total;
@@ -77,10 +78,6 @@ impl Filled {
 pub(super) fn fill_bottom(h: &mut Heightfield, topo: Topology, pit: usize, max_cells: usize, ceiling: &Ceiling) -> Filled {
     fill_from(h, topo, pit, max_cells, None, ceiling)
 }
-
-/// How high a fill may raise a cell (`SketchFloors::ceiling`): cells not listed, as
-/// high as the fill goes.
-pub(super) type Ceiling = FxHashMap<usize, f32>;
 
 /// [`fill_bottom`]; with `water` (the terrain's water levels, depressions filled), the
 /// water spills only to lower ground outside the depression: the other basins behind

@@ -10,9 +10,9 @@
 //! With the ceilings and a first search whose gully's walls spare the held sides
 //! (`Floors::spare`, on a near way out only, and checked only on the cells
 //! [`near_held`] marks: checked on every cell, the stage took 1.33 s against 0.30 s
-//! on mixed-1024; so, 0.34 s), 0.976; on a 4096² massif sketch 0.984 to 0.993. Capping the walls cell by cell at the
-//! floors instead kept 0.986 but left held cells standing as fins in the gullies
-//! (roughness ratio 0.95 to 1.13).
+//! on mixed-1024; so, 0.34 s), 0.976; on a 4096² massif sketch 0.984 to 0.993.
+//! Capping the walls cell by cell at the floors instead kept 0.986 but left held
+//! cells standing as fins in the gullies (roughness ratio 0.95 to 1.13).
 
 use super::topology::Topology;
 use crate::stages::sketch::{cross_section, SketchFeatures};
@@ -82,6 +82,10 @@ pub fn sketch_floors(sk: &SketchFeatures, h: &Heightfield, patch: usize) -> Sket
     SketchFloors { floor: out, ceiling }
 }
 
+/// How high a fill may raise a cell (`SketchFloors::ceiling`): cells not listed, as
+/// high as the fill goes.
+pub type Ceiling = FxHashMap<usize, f32>;
+
 /// What the sketch allows the conditioning ([`sketch_floors`]).
 #[derive(Debug, Clone, Default)]
 pub struct SketchFloors {
@@ -91,13 +95,13 @@ pub struct SketchFloors {
     /// to its lowest checked side (less [`FLOOR_MARGIN_M`]), so the fill never lifts
     /// the valley's floor over its sides. Cells not listed may rise as far as a fill
     /// takes them.
-    pub ceiling: FxHashMap<usize, f32>,
+    pub ceiling: Ceiling,
 }
 
 impl From<Vec<f32>> for SketchFloors {
     /// Floors alone: no ceilings.
     fn from(floor: Vec<f32>) -> Self {
-        SketchFloors { floor, ceiling: FxHashMap::default() }
+        SketchFloors { floor, ceiling: Ceiling::default() }
     }
 }
 
@@ -107,7 +111,7 @@ const FLOOR_MARGIN_M: f32 = 0.1;
 /// The floors one breach keeps to: all of them (`held`), or only the crests (a
 /// depression with no way out above the valleys' floors). Held, the search first
 /// keeps the narrowest gully's walls off them too (`spare`: no path cell is cut so
-/// deep that a bump of [`GULLY_RADIUS`](super::GULLY_RADIUS) would take a held cell
+/// deep that a bump of [`GULLY_RADIUS`] would take a held cell
 /// beside it below its floor), then, with no such way out, only the path itself.
 #[derive(Clone, Copy)]
 pub(super) struct Floors<'a> {
@@ -140,19 +144,14 @@ pub const GULLY_RADIUS: usize = 3;
 /// exclusive) of a cell with a finite floor, one bit each.
 pub(super) fn near_held(floor: &[f32], topo: Topology) -> Vec<u64> {
     let mut bits = vec![0u64; floor.len().div_ceil(64)];
-    let r = GULLY_RADIUS as i64;
     for (c, f) in floor.iter().enumerate() {
         if !f.is_finite() {
             continue;
         }
         let (x, y) = topo.xy(c);
-        for dy in -r..=r {
-            for dx in -r..=r {
-                if dx * dx + dy * dy < (r + 1) * (r + 1) {
-                    if let Some(j) = topo.at(x + dx, y + dy) {
-                        bits[j / 64] |= 1 << (j % 64);
-                    }
-                }
+        for (dx, dy, _) in wall_disc() {
+            if let Some(j) = topo.at(x + dx, y + dy) {
+                bits[j / 64] |= 1 << (j % 64);
             }
         }
     }
@@ -166,22 +165,22 @@ pub(super) fn max_held_drop(h: &Heightfield, topo: Topology, floor: Floors, at: 
     if !floor.held {
         return f32::INFINITY;
     }
-    let r = GULLY_RADIUS as i64;
-    let span = ((r + 1) * (r + 1)) as f32;
+    let span = ((GULLY_RADIUS + 1) * (GULLY_RADIUS + 1)) as f32;
     let mut most = f32::INFINITY;
-    for dy in -r..=r {
-        for dx in -r..=r {
-            let d2 = dx * dx + dy * dy;
-            if d2 >= (r + 1) * (r + 1) {
-                continue;
-            }
-            let Some(j) = topo.at(at.0 + dx, at.1 + dy) else { continue };
-            let f = floor.at(j);
-            if f.is_finite() {
-                let u = 1.0 - d2 as f32 / span;
-                most = most.min((h.data[j] - f).max(0.0) / (u * u));
-            }
+    for (dx, dy, d2) in wall_disc() {
+        let Some(j) = topo.at(at.0 + dx, at.1 + dy) else { continue };
+        let f = floor.at(j);
+        if f.is_finite() {
+            let u = 1.0 - d2 as f32 / span;
+            most = most.min((h.data[j] - f).max(0.0) / (u * u));
         }
     }
     most
+}
+
+/// The offsets (dx, dy, dx² + dy²) a gully of [`GULLY_RADIUS`] reaches from its path
+/// cell: its bump `(1 − d²/(R+1)²)²` is above zero within R + 1.
+fn wall_disc() -> impl Iterator<Item = (i64, i64, i64)> {
+    let r = GULLY_RADIUS as i64;
+    (-r..=r).flat_map(move |dy| (-r..=r).map(move |dx| (dx, dy, dx * dx + dy * dy))).filter(move |e| e.2 < (r + 1) * (r + 1))
 }

@@ -220,7 +220,7 @@ pub fn breach_depressions_on_torus(h: &mut Heightfield, floors: &SketchFloors, p
 }
 
 fn breach_on(h: &mut Heightfield, topo: Topology, floors: &SketchFloors, patch: usize, hybrid: Hybrid) -> DrainageStats {
-    let no_ceiling = fill::Ceiling::default();
+    let no_ceiling = floors::Ceiling::default();
     let (floor, ceiling) = (&floors.floor[..], if hybrid.keeps_valley_sides() { &floors.ceiling } else { &no_ceiling });
     // (read only by a search that spares the held sides)
     let near = if hybrid.keeps_valley_sides() { floors::near_held(floor, topo) } else { Vec::new() };

@@ -6,6 +6,11 @@ use super::*;
 use crate::solvers::hydrology::{drainage_shares, water_levels};
 use ridgeline_terrain::grid::Grid;
 
+/// Floors alone, no ceilings, for `breach_depressions`.
+fn floors(floor: &[f32]) -> SketchFloors {
+    floor.to_vec().into()
+}
+
 /// A valley falling to the left border, dammed by a 30 m bar at x = 50.
 fn dammed() -> Heightfield {
     let (w, h) = (120usize, 60usize);
@@ -29,7 +34,7 @@ fn a_dammed_valley_is_breached_through_the_dam_with_few_cells() {
     let before = h.clone();
     assert!(drainage_shares(&h, 5.0).sink_share > 0.01, "the dam holds a lake");
     let keep = vec![f32::NEG_INFINITY; h.data.len()];
-    let s = breach_depressions(&mut h, &keep.clone().into(), 32, Hybrid::FillThenBreach);
+    let s = breach_depressions(&mut h, &floors(&keep), 32, Hybrid::FillThenBreach);
     assert_eq!((s.depressions, s.left), (1, 0), "{s:?}");
     assert!(s.breached >= 1 && s.cells_lowered <= 150, "a short gully through the 3-cell dam, 2% of the cells: {s:?}");
     // the 30 m dam is cut by more than 10 m at its crest, its gully's flanks by less
@@ -87,7 +92,7 @@ fn a_trench_gives_way_to_a_larger_filled_bottom() {
     let mut h = hole_in_a_plateau();
     let before = h.clone();
     let keep = vec![f32::NEG_INFINITY; h.data.len()];
-    let s = breach_depressions(&mut h, &keep.clone().into(), 32, Hybrid::FillThenBreach);
+    let s = breach_depressions(&mut h, &floors(&keep), 32, Hybrid::FillThenBreach);
     assert_eq!(s.left, 0, "{s:?}");
     assert!(s.max_cut_m < 1.0 && s.cells_lowered_over_10m == 0, "{s:?}");
     assert!(s.cells_raised >= 9 && s.cells_raised <= 16 * fill_cells(32), "{s:?}");
@@ -105,7 +110,7 @@ fn a_trench_gives_way_to_a_larger_filled_bottom() {
     let mut h = hole_in_a_plateau();
     let mut floor = keep.clone();
     floor[60 * 120 + 61] = 0.0;
-    let s = breach_depressions(&mut h, &floor.clone().into(), 32, Hybrid::FillThenBreach);
+    let s = breach_depressions(&mut h, &floors(&floor), 32, Hybrid::FillThenBreach);
     assert!(s.max_cut_m > 100.0 && s.cells_raised <= fill_cells(32), "{s:?}");
 }
 
@@ -117,7 +122,7 @@ fn a_coarse_level_breaches_a_long_lake_and_fills_a_deep_hole() {
     let mut h = dammed();
     let before = h.clone();
     let keep = vec![f32::NEG_INFINITY; h.data.len()];
-    let s = breach_depressions(&mut h, &keep.clone().into(), 32, Hybrid::BreachOrFill);
+    let s = breach_depressions(&mut h, &floors(&keep), 32, Hybrid::BreachOrFill);
     assert_eq!((s.breached, s.left, s.bottoms_filled, s.cells_raised), (1, 0, 0, 0), "{s:?}");
     assert!(h.data.iter().zip(&before.data).all(|(a, b)| a <= b));
     assert_eq!(drainage_shares(&h, MIN_DEPTH_M).sink_share, 0.0);
@@ -126,7 +131,7 @@ fn a_coarse_level_breaches_a_long_lake_and_fills_a_deep_hole() {
     let mut h = hole_in_a_plateau();
     let before = h.clone();
     let keep = vec![f32::NEG_INFINITY; h.data.len()];
-    let s = breach_depressions(&mut h, &keep.clone().into(), 32, Hybrid::BreachOrFill);
+    let s = breach_depressions(&mut h, &floors(&keep), 32, Hybrid::BreachOrFill);
     assert_eq!((s.breached, s.left, s.cells_lowered), (0, 0, 0), "{s:?}");
     assert_eq!((s.bottoms_filled, s.filled_to_rim, s.cells_raised), (1, 1, 9), "{s:?}");
     assert!(h.data.iter().zip(&before.data).all(|(a, b)| a >= b && a - b < 601.0));
@@ -140,7 +145,7 @@ fn a_basin_closed_by_a_kept_ring_stays_closed() {
     let keep: Vec<f32> =
         (0..h.data.len()).map(|i| if ((i % 120) as i64 - 50).abs() < 2 { f32::INFINITY } else { f32::NEG_INFINITY }).collect();
     let before = h.clone();
-    let s = breach_depressions(&mut h, &keep.clone().into(), 32, Hybrid::FillThenBreach);
+    let s = breach_depressions(&mut h, &floors(&keep), 32, Hybrid::FillThenBreach);
     assert_eq!((s.breached, s.left), (0, 1), "{s:?}");
     assert_eq!(h.data, before.data);
 }
@@ -193,7 +198,7 @@ fn a_breach_keeps_to_the_floors_where_it_can_and_drains_where_it_cannot() {
         floor[i] = before.data[i] - 10.0;
     }
     let mut h = before.clone();
-    let s = breach_depressions(&mut h, &floor.clone().into(), 32, Hybrid::FillThenBreach);
+    let s = breach_depressions(&mut h, &floors(&floor), 32, Hybrid::FillThenBreach);
     assert_eq!(s.left, 0, "{s:?}");
     assert_eq!(drainage_shares(&h, MIN_DEPTH_M).sink_share, 0.0);
     // floors a metre below the dam's surface beside the valley's floor (4 to 7
@@ -206,8 +211,8 @@ fn a_breach_keeps_to_the_floors_where_it_can_and_drains_where_it_cannot() {
         }
     }
     let (mut h, mut free) = (before.clone(), before.clone());
-    let s = breach_depressions(&mut h, &floor.clone().into(), 32, Hybrid::FillThenBreach);
-    breach_depressions(&mut free, &vec![f32::NEG_INFINITY; n].into(), 32, Hybrid::FillThenBreach);
+    let s = breach_depressions(&mut h, &floors(&floor), 32, Hybrid::FillThenBreach);
+    breach_depressions(&mut free, &floors(&vec![f32::NEG_INFINITY; n]), 32, Hybrid::FillThenBreach);
     assert_eq!((s.breached, s.left), (1, 0), "{s:?}");
     assert!(free.data.iter().zip(&floor).any(|(v, f)| v < f), "the floors bind");
     assert!(h.data.iter().zip(&floor).all(|(v, f)| v >= f), "a cell cut below its floor");
@@ -235,8 +240,8 @@ fn on_a_torus_the_gully_to_the_seam_is_cut_on_both_sides_of_it() {
     let keep = vec![f32::NEG_INFINITY; before.data.len()];
     let seam_jump = |h: &Heightfield| (0..60).map(|y| (h.get(0, y) - h.get(119, y)).abs()).fold(0f32, f32::max);
     let (mut plain, mut torus) = (before.clone(), before.clone());
-    let sp = breach_depressions(&mut plain, &keep.clone().into(), 16, Hybrid::FillThenBreach);
-    let st = breach_depressions_on_torus(&mut torus, &keep.clone().into(), 16, Hybrid::FillThenBreach);
+    let sp = breach_depressions(&mut plain, &floors(&keep), 16, Hybrid::FillThenBreach);
+    let st = breach_depressions_on_torus(&mut torus, &floors(&keep), 16, Hybrid::FillThenBreach);
     for (h, s) in [(&plain, sp), (&torus, st)] {
         assert_eq!((s.depressions, s.breached, s.left), (1, 1, 0), "{s:?}");
         assert_eq!(drainage_shares(h, MIN_DEPTH_M).sink_share, 0.0, "the bowl drains over the border");
@@ -280,7 +285,7 @@ fn a_breach_keeps_the_narrowest_gullys_walls_off_a_held_side_where_it_can() {
         floor[i] = before.data[i] - 1.0;
     }
     let mut h = before.clone();
-    let s = breach_depressions(&mut h, &floor.clone().into(), 32, Hybrid::FillThenBreach);
+    let s = breach_depressions(&mut h, &floors(&floor), 32, Hybrid::FillThenBreach);
     assert_eq!((s.breached, s.left), (1, 0), "{s:?}");
     assert_eq!(drainage_shares(&h, MIN_DEPTH_M).sink_share, 0.0);
     let worst = h.data.iter().zip(&floor).map(|(v, f)| f - v).fold(f32::NEG_INFINITY, f32::max);
