@@ -132,7 +132,6 @@ def d8_accumulation(h):
     n, m = h.shape
     order = np.argsort(-h, axis=None, kind="stable")
     acc = np.ones(n * m, np.float64)
-    flat = h.ravel()
     pad = np.pad(h, 1, constant_values=np.inf)
     best = np.full(h.shape, -1, np.int64)
     drop = np.zeros(h.shape)
@@ -151,7 +150,6 @@ def d8_accumulation(h):
         j = down[i]
         if j >= 0:
             acc[j] += acc[i]
-    del flat
     return acc.reshape(h.shape)
 
 
@@ -258,7 +256,7 @@ def get(d, *path, default=None):
 
 def figures(rep):
     ev = rep.get("evaluation") or {}
-    stages = {s["stage"] if "stage" in s else s.get("name"): s.get("seconds", s.get("wall_s")) for s in rep.get("stages", [])}
+    stages = {s["stage"]: s["seconds"] for s in rep.get("stages", [])}
     rav = ev.get("ridge_above_valley") or {}
     dr, sdr = ev.get("drainage") or {}, ev.get("source_drainage") or {}
     lf, slf = ev.get("landforms") or {}, ev.get("source_landforms") or {}

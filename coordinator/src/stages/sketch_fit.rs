@@ -209,9 +209,8 @@ fn stamps<'a>(h: &Heightfield, sign: f32, sections: &'a [CrossSection], slope: f
 
 impl Stamps<'_> {
     /// Step 3: draws the cross profiles reaching into band `b` (rows from `y0`,
-    /// `rows.len() / w` of them), combined by maximum, each cell's weighted by `keep`
-    /// (this kind's share of the cell, [`Sides::keep`]).
-    fn draw(&self, b: usize, y0: usize, w: usize, rows: &mut [f32], keep: impl Fn(usize) -> f32) {
+    /// `rows.len() / w` of them), combined by maximum.
+    fn draw(&self, b: usize, y0: usize, w: usize, rows: &mut [f32]) {
         let y1 = y0 + rows.len() / w;
         for &i in &self.per_band[b] {
             let (cs, a) = (&self.sections[i], self.amp[i]);
@@ -230,9 +229,8 @@ impl Stamps<'_> {
                     let c = if d > 0.0 { (dx * cs.normal.0 + dy * cs.normal.1) / d } else { 0.0 };
                     let t = d / (cs.reach[0] * (1.0 + c) + cs.reach[1] * (1.0 - c)) * 2.0;
                     if t < 1.0 {
-                        let k = (y - y0) * w + x;
-                        let cell = &mut rows[k];
-                        *cell = cell.max(a * profile(t) * keep(k));
+                        let cell = &mut rows[(y - y0) * w + x];
+                        *cell = cell.max(a * profile(t));
                     }
                 }
             }
@@ -276,17 +274,22 @@ impl Sides {
         Sides { share: Some(share) }
     }
 
-    /// How much of a `kind` stamp cell `i` keeps: 1 on the kind's half, falling
-    /// smoothly (a smoothstep) to 0 on a line of the other kind.
-    fn keep(&self, kind: FeatureKind, i: usize) -> f32 {
-        let Some(share) = &self.share else { return 1.0 };
-        let s = share[i] as f32 / 255.0;
-        let own = match kind {
-            FeatureKind::Ridge => s,
-            FeatureKind::Valley => 1.0 - s,
-        };
-        let u = (2.0 * own).min(1.0);
-        u * u * (3.0 - 2.0 * u)
+    /// Fades a `kind`'s drawn stamps (cells from flat index `start`): each cell keeps
+    /// 1 of its height on the kind's half, falling smoothly (a smoothstep) to 0 on a
+    /// line of the other kind. A factor of the cell alone, so applied once to the
+    /// stamps' maximum.
+    fn fade(&self, kind: FeatureKind, start: usize, stamps: &mut [f32]) {
+        let Some(share) = &self.share else { return };
+        for (v, &s) in stamps.iter_mut().zip(&share[start..]) {
+            // nearness to the kind's own lines: 1 on one, 0 on a line of the other kind
+            let s = s as f32 / 255.0;
+            let own = match kind {
+                FeatureKind::Ridge => s,
+                FeatureKind::Valley => 1.0 - s,
+            };
+            let u = (2.0 * own).min(1.0);
+            *v *= u * u * (3.0 - 2.0 * u);
+        }
     }
 }
 
@@ -345,7 +348,8 @@ fn fit(h: &mut Heightfield, sk: &SketchFeatures, patch: usize) -> FitStats {
                 }
                 let profiles = drawn.map(|kind, d| {
                     let mut p = vec![0f32; rows.len()];
-                    d.0.draw(b, b * BAND, w, &mut p, |k| sides.keep(kind, b * BAND * w + k));
+                    d.0.draw(b, b * BAND, w, &mut p);
+                    sides.fade(kind, b * BAND * w, &mut p);
                     p
                 });
                 let mut m = 0f32;
