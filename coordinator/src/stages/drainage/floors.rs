@@ -36,8 +36,8 @@ use rustc_hash::FxHashMap;
 /// never cut (`f32::INFINITY`), and the cells where a valley's cross-section is
 /// checked (`sketch::CrossSection` at half and all of its reach, patch/2, on both
 /// sides: the cells a bilinear sample there reads) never go below the valley's
-/// split level (see the module header), so a gully draining a pit beside a sketched valley does not leave
-/// the valley's side lower than its floor. (Breaching without these floors turned
+/// split level (see the module header), so a gully draining a pit beside a sketched
+/// valley does not leave the valley's side lower than its floor. (Breaching without these floors turned
 /// 2% of a traced sketch's valley cells from fitting to not fitting: 0.991 to 0.967.)
 pub fn sketch_floors(sk: &SketchFeatures, h: &Heightfield, patch: usize) -> SketchFloors {
     use rayon::prelude::*;
@@ -47,10 +47,8 @@ pub fn sketch_floors(sk: &SketchFeatures, h: &Heightfield, patch: usize) -> Sket
     let bounds = sk.bounds();
     let pixels: Vec<u32> = valleys.pixels().collect();
     let reach = patch as f32 / 2.0;
-    // each centre-line cell's split level between its floor and its lowest checked
-    // side: a fill may raise the centre to it, a breach lower the sides to it (plus
-    // the margin), never further, so the two together never turn the valley over
-    // (floor of the sides, ceiling of the centre, the checked points)
+    // each centre-line cell's sides' floor (its split level plus the margin), its
+    // ceiling (the split level) and its checked points
     type Held = (f32, f32, [(f32, f32); 4]);
     let sides: Vec<Held> = pixels
         .par_iter()
@@ -103,8 +101,8 @@ pub struct SketchFloors {
     pub floor: Vec<f32>,
     /// How high a filled bottom may raise each sketched valley's centre-line cell:
     /// to its split level, below its sides' floors, so the fill never lifts the
-    /// valley's floor over its sides, whatever a breach cuts of them. Cells not listed may rise as far as a fill
-    /// takes them.
+    /// valley's floor over its sides, whatever a breach cuts of them. Cells not
+    /// listed may rise as far as a fill takes them.
     pub ceiling: Ceiling,
 }
 
