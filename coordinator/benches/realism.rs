@@ -2,8 +2,9 @@
 //! some of the shared DEMs out, each pair synthesised and measured with the figures of
 //! `ridgeline evaluate` (`ridgeline::evaluation`), so changes to the engine are judged
 //! on cases it was not tuned on. Also prints the yardstick: how far the shared real
-//! DEMs are from each other (each against the rest, leave-one-out), the spread a
-//! terrain "as real as its sources" should fall in.
+//! DEMs are from each other (each against the rest, leave-one-out: landform distance,
+//! spectral slope difference, roughness ratio), the spread a terrain "as real as its
+//! sources" should fall in.
 //!
 //! Sketches (512 x 512): curves (sinusoidal ridges 3 px, valleys 9 px), junctions
 //! (a Y of ridges, a T of valleys), parallel ridges 18 px apart (2 px), strokes
@@ -316,7 +317,7 @@ fn main() {
     let forms: Vec<landforms::Landforms> =
         all.iter().map(|(_, h)| landforms::Landforms::of(&landforms::classify(h, 90.0))).collect();
     let spectra: Vec<Option<spectrum::Spectrum>> = all.iter().map(|(_, h)| spectrum::spectrum(h)).collect();
-    let (mut dist, mut slope) = (Vec::new(), Vec::new());
+    let (mut dist, mut slope, mut rough) = (Vec::new(), Vec::new(), Vec::new());
     for i in 0..all.len() {
         let rest: Vec<(landforms::Landforms, f64)> = (0..all.len()).filter(|&j| j != i).map(|j| (forms[j], 1.0)).collect();
         dist.push(forms[i].distance(&landforms::Landforms::mix(&rest)));
@@ -324,6 +325,7 @@ fn main() {
             (0..all.len()).filter(|&j| j != i).filter_map(|j| spectra[j].clone().map(|s| (s, 1.0))).collect();
         if let (Some(own), Some(mix)) = (&spectra[i], spectrum::Spectrum::mix(&others)) {
             slope.push(own.slope() - mix.slope());
+            rough.push(own.roughness() / mix.roughness());
         }
     }
     let spread = |v: &mut Vec<f64>| {
@@ -333,6 +335,7 @@ fn main() {
     println!("real DEMs, each against the other {} (min / median / max):", all.len() - 1);
     println!("  landform distance        {}", spread(&mut dist));
     println!("  spectral slope difference {}", spread(&mut slope));
+    println!("  roughness ratio          {}", spread(&mut rough));
     if std::env::var_os("RIDGELINE_BENCH_KEEP").is_some() {
         println!("sketches and libraries kept in {}", dir.display());
     } else {
