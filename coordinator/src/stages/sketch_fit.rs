@@ -199,7 +199,12 @@ fn stamps<'a>(h: &Heightfield, sign: f32, sections: &'a [CrossSection], slope: f
                 .fold(0f32, f32::max)
         })
         .collect();
-    for (i, cs) in sections.iter().enumerate().filter(|(i, _)| amp[*i] > 0.0) {
+    // each band's stamps highest first: drawn so, most cells of a lower stamp already
+    // hold more than its top and are passed over (the maximum is the same in any order)
+    let mut order: Vec<usize> = (0..sections.len()).filter(|&i| amp[i] > 0.0).collect();
+    order.sort_by(|&a, &b| amp[b].total_cmp(&amp[a]).then(a.cmp(&b)));
+    for i in order {
+        let cs = &sections[i];
         let r = cs.reach[0].max(cs.reach[1]).ceil() as usize;
         let (b0, b1) = (cs.y.saturating_sub(r) / BAND, (cs.y + r).min(hh - 1) / BAND);
         per_band[b0..=b1].iter_mut().for_each(|l| l.push(i));
@@ -221,15 +226,21 @@ impl Stamps<'_> {
                 // the row's span inside the larger reach's circle
                 let span = (reach * reach - dy * dy).max(0.0).sqrt() as usize;
                 for x in cs.x.saturating_sub(span)..(cs.x + span + 1).min(w) {
+                    let cell = &mut rows[(y - y0) * w + x];
+                    // the profile is at most 1: a cell already as high as the stamp's top stays
+                    if *cell >= a {
+                        continue;
+                    }
                     let dx = x as f32 - cs.x as f32;
-                    let d = dx.hypot(dy);
+                    // dx² + dy² is exact (whole cells, far below 2^24), so its correctly
+                    // rounded root is the bits `hypot` gives, without the libm call
+                    let d = (dx * dx + dy * dy).sqrt();
                     // the reach turns from one side's to the other's with the direction
                     // (the sides' own along the normal, their mean along the line), so a
                     // stamp whose sides differ has no step along its tangent
                     let c = if d > 0.0 { (dx * cs.normal.0 + dy * cs.normal.1) / d } else { 0.0 };
                     let t = d / (cs.reach[0] * (1.0 + c) + cs.reach[1] * (1.0 - c)) * 2.0;
                     if t < 1.0 {
-                        let cell = &mut rows[(y - y0) * w + x];
                         *cell = cell.max(a * profile(t));
                     }
                 }

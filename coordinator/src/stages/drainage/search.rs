@@ -106,6 +106,9 @@ pub(super) fn breach_path(
     let mut best: FxHashMap<usize, (f32, u32, usize)> = FxHashMap::default();
     best.insert(pit, (0.0, 0, usize::MAX)); // cost, steps, from
     let mut heap = BinaryHeap::from([Reverse((Total(0.0), pit))]);
+    // how deep a cell beside a held side may be cut, found once per cell (a cell is
+    // reached from up to eight neighbours, and the terrain does not change meanwhile)
+    let mut held_drop: FxHashMap<usize, f32> = FxHashMap::default();
     while let Some(Reverse((Total(cost), c))) = heap.pop() {
         let (cc, steps, _) = best[&c];
         if cost > cc {
@@ -138,7 +141,11 @@ pub(super) fn breach_path(
             if cut > max_cut || (cut > 0.0 && next_line < floor.at(j)) {
                 continue;
             }
-            if cut > 0.0 && floor.spare && floor.near_held(j) && cut > max_held_drop(h, topo, floor, topo.xy(j)) + 1.0 {
+            if cut > 0.0
+                && floor.spare
+                && floor.near_held(j)
+                && cut > *held_drop.entry(j).or_insert_with(|| max_held_drop(h, topo, floor, topo.xy(j))) + 1.0
+            {
                 continue;
             }
             // the height the cell must lose, and a little per step so shorter paths win ties
