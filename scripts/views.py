@@ -105,7 +105,10 @@ def main():
     ap.add_argument("--azimuth", type=float, default=315.0, help="light and view azimuth, degrees")
     ap.add_argument("--window", help="X,Y: the 1:1 window's top-left cell (default: centred)")
     a = ap.parse_args()
-    h = tifffile.imread(a.terrain).astype(np.float64)
+    try:
+        h = tifffile.imread(a.terrain).astype(np.float64)
+    except (OSError, ValueError) as e:
+        raise SystemExit(f"{a.terrain}: cannot read a GeoTIFF of heights ({e})")
     if h.ndim != 2:
         raise SystemExit(f"{a.terrain}: expected one band of heights, got shape {h.shape}")
     lo, hi = float(h.min()), float(h.max())
