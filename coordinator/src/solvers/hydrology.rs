@@ -7,6 +7,8 @@
 //!   surface is level (a lake, a flat) to the neighbour it was flooded from, so water
 //!   crosses depressions the way a river crosses a lake and every route leads to the
 //!   border;
+//! - [`water_levels`]: the same levels without the routing, by a flood that traces
+//!   slopes upwards past the heap (the drainage stage floods a terrain this way);
 //! - the sink area: cells lying more than a depth below the water level
 //!   ([`Flooded::sunk`]), and the depressions deeper than a depth as a whole
 //!   ([`Flooded::closed_basins`]: lakes no river leaves, their shallow margins
@@ -55,6 +57,30 @@ fn key(level: f32, i: usize) -> Reverse<u64> {
     Reverse(((ordered as u64) << 32) | i as u64)
 }
 
+/// Where a flood starts: voids are settled at once (`settled`), and the cells on the
+/// border or beside a void are marked done and handed to `outlet`.
+fn seed(h: &Heightfield, done: &mut [bool], mut outlet: impl FnMut(usize), mut settled: impl FnMut(usize)) {
+    let (w, hh) = (h.width, h.height);
+    // a terrain without voids (the usual case) needs no look at each cell's neighbours
+    let any_void = h.data.iter().any(|v| !v.is_finite());
+    for (i, done) in done.iter_mut().enumerate() {
+        let (x, y) = (i % w, i / w);
+        let edge = x == 0 || y == 0 || x + 1 == w || y + 1 == hh;
+        let void = any_void && !h.data[i].is_finite();
+        let beside_void = any_void
+            && !void
+            && !edge
+            && D8.iter().any(|&(dx, dy)| !h.data[(y as i64 + dy) as usize * w + (x as i64 + dx) as usize].is_finite());
+        if void {
+            *done = true;
+            settled(i);
+        } else if edge || beside_void {
+            *done = true;
+            outlet(i);
+        }
+    }
+}
+
 /// The priority-flood itself (see the module header): the water level of every cell,
 /// calling `reached(cell, direction)` as a cell is first reached from the neighbour in
 /// that direction's opposite, and `settled(cell)` as each cell's level is final, by
@@ -66,24 +92,7 @@ fn priority_flood(h: &Heightfield, mut reached: impl FnMut(usize, usize), mut se
     let mut done = vec![false; n];
     let mut heap: BinaryHeap<Reverse<u64>> = BinaryHeap::new();
     let mut pit: VecDeque<u32> = VecDeque::new();
-    // a terrain without voids (the usual case) needs no look at each cell's neighbours
-    let any_void = h.data.iter().any(|v| !v.is_finite());
-    for i in 0..n {
-        let (x, y) = (i % w, i / w);
-        let edge = x == 0 || y == 0 || x + 1 == w || y + 1 == hh;
-        let void = any_void && !h.data[i].is_finite();
-        let beside_void = any_void
-            && !void
-            && !edge
-            && D8.iter().any(|&(dx, dy)| !h.data[(y as i64 + dy) as usize * w + (x as i64 + dx) as usize].is_finite());
-        if void {
-            done[i] = true;
-            settled(i);
-        } else if edge || beside_void {
-            done[i] = true;
-            heap.push(key(level[i], i));
-        }
-    }
+    seed(h, &mut done, |i| heap.push(key(level[i], i)), &mut settled);
     loop {
         let c = match pit.pop_front() {
             Some(c) => c as usize,
@@ -119,8 +128,85 @@ fn priority_flood(h: &Heightfield, mut reached: impl FnMut(usize, usize), mut se
 
 /// The water level of every cell of `h` when water can leave only across the border
 /// (or into voids): the depression-filled surface, without the routing.
+///
+/// The levels alone do not depend on the order cells are settled in, so this flood
+/// skips the heap for most cells (Zhou, Sun and Fu 2016's variant of the
+/// priority-flood): a cell reached from below, higher than the water it was reached
+/// from, stands at its own height, and so does every higher cell reached from it; such
+/// a slope is traced upwards at once, and only a cell with a lower neighbour not yet
+/// reached waits in the heap, at its own height, until the flood gets there. The
+/// levels are the ordered flood's, bit for bit (a property test holds it to that). On
+/// mixed-1024's terrain before conditioning it took 0.060 s against 0.072 s for the
+/// ordered flood without the routing (minimums of 21, the two runs interleaved).
 pub fn water_levels(h: &Heightfield) -> Vec<f32> {
-    priority_flood(h, |_, _| {}, |_| {})
+    let (w, hh) = (h.width, h.height);
+    let z = &h.data[..];
+    let mut level = z.to_vec();
+    let mut done = vec![false; w * hh];
+    let mut heap: BinaryHeap<Reverse<u64>> = BinaryHeap::new();
+    seed(h, &mut done, |i| heap.push(key(z[i], i)), |_| {});
+    let mut pit: Vec<u32> = Vec::new();
+    let mut slope: Vec<u32> = Vec::new();
+    let offsets = D8.map(|(dx, dy)| dy as isize * w as isize + dx as isize);
+    let neighbours = |c: usize, out: &mut [usize; 8]| -> usize {
+        let (x, y) = (c % w, c / w);
+        if x > 0 && y > 0 && x + 1 < w && y + 1 < hh {
+            for (o, d) in out.iter_mut().zip(offsets) {
+                *o = c.wrapping_add_signed(d);
+            }
+            return 8;
+        }
+        let mut k = 0;
+        for &(dx, dy) in &D8 {
+            let (nx, ny) = (x as i64 + dx, y as i64 + dy);
+            if nx >= 0 && ny >= 0 && (nx as usize) < w && (ny as usize) < hh {
+                out[k] = ny as usize * w + nx as usize;
+                k += 1;
+            }
+        }
+        k
+    };
+    let mut around = [0usize; 8];
+    loop {
+        let c = match pit.pop() {
+            Some(c) => c as usize,
+            None => match heap.pop() {
+                Some(Reverse(k)) => (k & 0xffff_ffff) as usize,
+                None => break,
+            },
+        };
+        let l = level[c];
+        let m = neighbours(c, &mut around);
+        for &j in &around[..m] {
+            if done[j] {
+                continue;
+            }
+            done[j] = true;
+            if z[j] <= l {
+                level[j] = l;
+                pit.push(j as u32);
+            } else {
+                slope.push(j as u32);
+            }
+        }
+        // up the slopes reached: each cell stands at its own height; one with a lower
+        // neighbour not yet reached waits for the flood in the heap
+        while let Some(k) = slope.pop() {
+            let k = k as usize;
+            let m = neighbours(k, &mut around);
+            if around[..m].iter().any(|&j| !done[j] && z[j] < z[k]) {
+                heap.push(key(z[k], k));
+                continue;
+            }
+            for &j in &around[..m] {
+                if !done[j] {
+                    done[j] = true;
+                    slope.push(j as u32);
+                }
+            }
+        }
+    }
+    level
 }
 
 /// Floods `h` from its border (voids, `NaN`, count as outside: water leaves there).
@@ -264,6 +350,7 @@ pub fn drainage_shares(h: &Heightfield, sink_depth_m: f32) -> DrainageShares {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::strategy::Strategy;
     use ridgeline_terrain::grid::Grid;
 
     /// A tilted plane with a bowl of `depth` m at (30, 20) and a ridge wall.
@@ -328,6 +415,28 @@ mod tests {
         assert!(!drains[20 * 60 + 45] && drains[20 * 60 + 10], "{row}");
         let draining = drains.iter().filter(|&&d| d).count();
         assert!((s.border_share - draining as f64 / 2400.0).abs() < 1e-9 && draining < 2400 - inside, "{s:?}");
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig { cases: 200, failure_persistence: None, ..Default::default() })]
+
+        /// The traced flood of [`water_levels`] gives every cell the level the ordered
+        /// flood gives it, bit for bit: on rough terrains with plateaus (heights
+        /// rounded to a few levels, so ties abound), pits, voids and grids down to a
+        /// single row.
+        #[test]
+        fn the_traced_flood_gives_the_ordered_floods_levels(
+            (w, h, cells) in (1usize..24, 1usize..24).prop_flat_map(|(w, h)| {
+                (proptest::strategy::Just(w), proptest::strategy::Just(h), proptest::collection::vec((0u8..12, 0u8..20), w * h))
+            })
+        ) {
+            // a height of 0..12 m in steps, a void where the second draw is 0
+            let data: Vec<f32> = cells.iter().map(|&(v, void)| if void == 0 { f32::NAN } else { f32::from(v) * 1.5 }).collect();
+            let g = Grid::from_vec(w, h, data);
+            let traced = water_levels(&g);
+            let ordered = flood(&g).level;
+            proptest::prop_assert!(traced.iter().zip(&ordered).all(|(a, b)| a.to_bits() == b.to_bits()), "{traced:?} against {ordered:?}");
+        }
     }
 
     #[test]

@@ -81,9 +81,13 @@
 //! pass breaches nothing; a pass after the first takes every cell without a lower
 //! neighbour, with its depth from a flood out of that cell alone instead of flooding
 //! the whole terrain again (mixed-1024: the stage took 0.37 s with four full floods,
-//! 0.23 to 0.26 s so). Everything is sequential and ordered by cell index: the same
-//! bytes on every thread count (the searches' maps are rustc-hash's, whose hash of a
-//! cell index is fixed; they are only looked up, never iterated).
+//! 0.23 to 0.26 s so). The breaches are sequential and ordered by cell index (only
+//! the scan for a pass's pits runs by rows in parallel, and lists them in index order):
+//! the same bytes on every thread count (the searches' maps are rustc-hash's, whose
+//! hash of a cell index is fixed, kept from one search to the next; they are only
+//! looked up, never iterated). Flooding by traced slopes, the searches' maps kept and
+//! the scan by rows took the stage from 0.31 to 0.24 s on sparse-1024 (five runs of
+//! each, the same bytes).
 
 mod carve;
 mod fill;
@@ -100,7 +104,7 @@ use floors::Floors;
 pub use floors::{sketch_floors, SketchFloors, GULLY_RADIUS};
 use ridgeline_terrain::grid::Heightfield;
 pub use search::MIN_DEPTH_M;
-use search::{breach_path, has_way_down, local_depth, pits};
+use search::{breach_path, cells_without_way_down, has_way_down, local_depth, pits, Limits, Scratch};
 use topology::Topology;
 
 /// How far (in patches) a breach path may lead from its pit.
@@ -226,12 +230,12 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floors: &SketchFloors, patch: 
     let near = if hybrid.keeps_valley_sides() { floors::near_held(floor, topo) } else { Vec::new() };
     let mut stats = DrainageStats::default();
     let wall = wall_slope(h);
-    let (w, hh) = (h.width, h.height);
     // the first pass floods the whole terrain; a later pass takes every cell without a
     // lower neighbour, each with its depth from a flood out of that cell alone
     // the water levels serve the first pass's trenches only (a canvas's worth of
     // memory, let go after it)
     let (mut pits, mut water) = pits(h, topo);
+    let scratch = std::cell::RefCell::new(Scratch::default());
     stats.depressions = pits.len();
     for pass in 0..PASSES {
         let mut breached = 0;
@@ -241,7 +245,11 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floors: &SketchFloors, patch: 
             if has_way_down(h, topo, pit) {
                 continue;
             }
-            let depth = if pass == 0 { depth } else { local_depth(h, topo, pit, (2 * SEARCH_PATCHES * patch).pow(2)) };
+            let depth = if pass == 0 {
+                depth
+            } else {
+                local_depth(h, topo, pit, (2 * SEARCH_PATCHES * patch).pow(2), &mut scratch.borrow_mut())
+            };
             if depth <= MIN_DEPTH_M {
                 continue;
             }
@@ -290,11 +298,10 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floors: &SketchFloors, patch: 
                 let tries = [(true, true, false), (true, false, true), (false, false, true)];
                 tries.into_iter().filter(|t| !t.1 || hybrid.keeps_valley_sides()).find_map(|(held, spare, far)| {
                     let floor = Floors { floor, held, spare, near: &near };
-                    let near = breach_path(h, topo, pit, floor, SEARCH_PATCHES * patch, max_cut, max_cost);
-                    near.or_else(|| {
-                        far.then(|| breach_path(h, topo, pit, floor, FAR_SEARCH_PATCHES * patch, max_cut, max_cost)).flatten()
-                    })
-                    .map(|p| (p, floor))
+                    let limits = |patches: usize| Limits { reach: patches * patch, max_cut, max_cost };
+                    let search = |patches: usize| breach_path(h, topo, pit, floor, limits(patches), &mut scratch.borrow_mut());
+                    let near = search(SEARCH_PATCHES);
+                    near.or_else(|| far.then(|| search(FAR_SEARCH_PATCHES)).flatten()).map(|p| (p, floor))
                 })
             };
             let search = |h: &Heightfield, pit: usize| search_below(h, pit, max_cost);
@@ -381,7 +388,7 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floors: &SketchFloors, patch: 
         }
         // the next pass's pits: every cell without a lower neighbour (depths found when
         // their turn comes; most are a cell or two and cheap to measure)
-        let next: Vec<usize> = (0..w * hh).filter(|&c| h.data[c].is_finite() && !has_way_down(h, topo, c)).collect();
+        let next = cells_without_way_down(h, topo);
         pits = next.into_iter().map(|c| (h.data[c], c, 0.0)).collect();
         pits.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
     }

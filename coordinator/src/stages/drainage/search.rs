@@ -4,10 +4,10 @@
 
 use super::floors::{max_held_drop, Floors};
 use super::topology::Topology;
-use crate::solvers::hydrology::water_levels;
+use crate::solvers::hydrology::{water_levels, D8};
 use crate::solvers::total_order::Total;
 use ridgeline_terrain::grid::Heightfield;
-use rustc_hash::FxHashMap;
+use rustc_hash::{FxHashMap, FxHashSet};
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
@@ -18,17 +18,49 @@ pub const MIN_DEPTH_M: f32 = 2.0;
 /// Fall of a breach path per cell, metres, so water on it flows.
 pub(super) const FALL_PER_CELL: f32 = 1e-3;
 
+/// The maps and heap a search keeps, handed from one search to the next: cleared,
+/// not freed (most searches reach a few cells, and allocating anew cost them more than
+/// the search; a map grown large by a far search is let go instead, as clearing it
+/// would cost every later search its size). Only looked up, never iterated: what it
+/// held before makes no difference to a search.
+#[derive(Default)]
+pub(super) struct Scratch {
+    seen: FxHashSet<usize>,
+    best: FxHashMap<usize, (f32, u32, usize)>,
+    held_drop: FxHashMap<usize, f32>,
+    heap: BinaryHeap<Reverse<(Total<f32>, usize)>>,
+}
+
+impl Scratch {
+    /// Empties every map and the heap (a large one is let go).
+    fn clear(&mut self) {
+        const KEEP: usize = 1 << 14;
+        if self.seen.capacity() > KEEP
+            || self.best.capacity() > KEEP
+            || self.held_drop.capacity() > KEEP
+            || self.heap.capacity() > KEEP
+        {
+            *self = Scratch::default();
+        }
+        self.seen.clear();
+        self.best.clear();
+        self.held_drop.clear();
+        self.heap.clear();
+    }
+}
+
 /// How deep the depression holding `pit` is: its spill level (the lowest level at
 /// which water from the pit reaches a lower cell or the border: a priority-flood out
 /// of the pit alone) less the pit's height. A flood that covers more than `max_cells`
 /// without getting out stops there and gives the depth it has found so far (at most
 /// the true depth: the breach's cut is then bounded by less).
-pub(super) fn local_depth(h: &Heightfield, topo: Topology, pit: usize, max_cells: usize) -> f32 {
+pub(super) fn local_depth(h: &Heightfield, topo: Topology, pit: usize, max_cells: usize, scratch: &mut Scratch) -> f32 {
+    scratch.clear();
+    let Scratch { seen, heap, .. } = scratch;
     let z = h.data[pit];
     let mut spill = z;
-    let mut seen: FxHashMap<usize, ()> = FxHashMap::default();
-    seen.insert(pit, ());
-    let mut heap = BinaryHeap::from([Reverse((Total(z), pit))]);
+    seen.insert(pit);
+    heap.push(Reverse((Total(z), pit)));
     while let Some(Reverse((Total(v), c))) = heap.pop() {
         if c != pit && v < z {
             return spill - z;
@@ -38,7 +70,7 @@ pub(super) fn local_depth(h: &Heightfield, topo: Topology, pit: usize, max_cells
             return spill - z;
         }
         for j in topo.neighbours(c) {
-            if h.data[j].is_finite() && seen.insert(j, ()).is_none() {
+            if h.data[j].is_finite() && seen.insert(j) {
                 heap.push(Reverse((Total(h.data[j]), j)));
             }
         }
@@ -88,27 +120,59 @@ pub(super) fn has_way_down(h: &Heightfield, topo: Topology, pit: usize) -> bool 
     topo.is_outlet(pit) || topo.neighbours(pit).any(|j| h.data[j] < h.data[pit])
 }
 
+/// Every cell of `h` without a lower neighbour that is not an outlet (a pit of the
+/// next pass), by index; rows in parallel, the same list on every thread count.
+pub(super) fn cells_without_way_down(h: &Heightfield, topo: Topology) -> Vec<usize> {
+    use rayon::prelude::*;
+    let (w, z) = (h.width, &h.data[..]);
+    let offsets = D8.map(|(dx, dy)| dy as isize * w as isize + dx as isize);
+    (0..h.height)
+        .into_par_iter()
+        .flat_map_iter(|y| {
+            (y * w..(y + 1) * w).filter(move |&c| {
+                let x = c % w;
+                let v = z[c];
+                if x == 0 || y == 0 || x + 1 == w || y + 1 == h.height {
+                    return v.is_finite() && !has_way_down(h, topo, c);
+                }
+                // away from the border, the eight neighbours directly
+                v.is_finite() && !offsets.iter().any(|&o| z[c.wrapping_add_signed(o)] < v)
+            })
+        })
+        .collect()
+}
+
+/// How far a breach search may go: `reach` cells from its pit, cutting no cell more
+/// than `max_cut` below its height, costing no more than `max_cost` (the sum of its
+/// cells' cuts).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Limits {
+    pub(super) reach: usize,
+    pub(super) max_cut: f32,
+    pub(super) max_cost: f32,
+}
+
 /// The least-cost path from `pit` to a cell lower than the line falling from it (or to
-/// the border), within `reach` cells of it, never through a cell that may not be cut
-/// (`floor` infinite), never cutting one below its floor or more than `max_cut` below
-/// its height, costing no more than `max_cost` (the sum of its cells' cuts): the cells
-/// from the pit to that cell, or `None`.
+/// the border) within the `limits`, never through a cell that may not be cut (`floor`
+/// infinite), never cutting one below its floor: the cells from the pit to that cell,
+/// or `None`.
 pub(super) fn breach_path(
     h: &Heightfield,
     topo: Topology,
     pit: usize,
     floor: Floors,
-    reach: usize,
-    max_cut: f32,
-    max_cost: f32,
+    limits: Limits,
+    scratch: &mut Scratch,
 ) -> Option<Vec<usize>> {
+    let Limits { reach, max_cut, max_cost } = limits;
+    scratch.clear();
+    // `held_drop`: how deep a cell beside a held side may be cut, found once per cell (a
+    // cell is reached from up to eight neighbours, and the terrain does not change
+    // meanwhile)
+    let Scratch { best, heap, held_drop, .. } = scratch;
     let z = h.data[pit];
-    let mut best: FxHashMap<usize, (f32, u32, usize)> = FxHashMap::default();
     best.insert(pit, (0.0, 0, usize::MAX)); // cost, steps, from
-    let mut heap = BinaryHeap::from([Reverse((Total(0.0), pit))]);
-    // how deep a cell beside a held side may be cut, found once per cell (a cell is
-    // reached from up to eight neighbours, and the terrain does not change meanwhile)
-    let mut held_drop: FxHashMap<usize, f32> = FxHashMap::default();
+    heap.push(Reverse((Total(0.0), pit)));
     while let Some(Reverse((Total(cost), c))) = heap.pop() {
         let (cc, steps, _) = best[&c];
         if cost > cc {

@@ -314,10 +314,10 @@ fn a_pit_s_own_flood_finds_its_depth() {
     let level = water_levels(&h);
     let topo = Topology::plain(&h);
     let (_, pit, depth) = pits(&h, topo).0[0];
-    assert!((local_depth(&h, topo, pit, 1 << 20) - depth).abs() < 1e-3, "the dam's lake: {depth} m");
+    assert!((local_depth(&h, topo, pit, 1 << 20, &mut Default::default()) - depth).abs() < 1e-3, "the dam's lake: {depth} m");
     assert!((level[pit] - h.data[pit] - depth).abs() < 1e-3);
     // a flood stopped early has found at most the depth
-    let short = local_depth(&h, topo, pit, 20);
+    let short = local_depth(&h, topo, pit, 20, &mut Default::default());
     assert!(short <= depth + 1e-3 && short >= 0.0, "{short} vs {depth}");
 }
 

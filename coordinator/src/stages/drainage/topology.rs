@@ -38,9 +38,26 @@ impl Topology {
         ((c % self.w) as i64, (c / self.w) as i64)
     }
 
+    /// The cells around `c` (eight, fewer at a rectangle's border), in [`D8`]'s order.
     pub(super) fn neighbours(self, c: usize) -> impl Iterator<Item = usize> {
-        let (x, y) = ((c % self.w) as i64, (c / self.w) as i64);
-        D8.iter().filter_map(move |&(dx, dy)| self.at(x + dx, y + dy))
+        let (x, y) = (c % self.w, c / self.w);
+        let mut cells = [0usize; 8];
+        let mut n = 0;
+        if x > 0 && y > 0 && x + 1 < self.w && y + 1 < self.h {
+            // away from the border (almost every cell): no wrapping or bounds to look at
+            for (cell, &(dx, dy)) in cells.iter_mut().zip(&D8) {
+                *cell = c.wrapping_add_signed(dy as isize * self.w as isize + dx as isize);
+            }
+            n = 8;
+        } else {
+            for &(dx, dy) in &D8 {
+                if let Some(j) = self.at(x as i64 + dx, y as i64 + dy) {
+                    cells[n] = j;
+                    n += 1;
+                }
+            }
+        }
+        cells.into_iter().take(n)
     }
 
     /// The offset from `a` to `b`, the shorter way round on a torus.
