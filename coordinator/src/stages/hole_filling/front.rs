@@ -32,6 +32,10 @@
 //! 9.8 on seed 1; now 4.0 and 4.8, 4.2 and 5.9 (with the seam fix in `merge.rs` and
 //! the wider [`fill_band`]).
 //!
+//! **What a fill dams.** The candidates that go through the graph cut are ranked with
+//! their dam cost as well (`dams`): the basin the window would hold with the
+//! candidate laid and merged, an inflowing valley walled off or a hollow the lay made.
+//!
 //! **Seams of fills** stay within [`fill_band`] cells of the hole (image quilting's
 //! overlap strip; the graph cut then has a band of nodes, not the whole known part of
 //! the window), and the merge cross-fades gradients over the two cells next to the
@@ -39,11 +43,12 @@
 //! straight seams, the cut's weights carry smooth noise and a tile writes back what it
 //! filled only within a ragged extent of its core (`ragged_edge`).
 
+use super::dams::dam_cost;
 use crate::canvas::{Canvas, Placement, Rect, Win};
 use crate::stages::base_surface::BaseSurface;
 use crate::stages::coarse_level::FormSources;
 use crate::stages::merge::SeamLimits;
-use crate::stages::window_scoring::{cut_and_merge, Target};
+use crate::stages::window_scoring::{cut_and_merge, Target, GRAPH_CUT_SET};
 use ridgeline_terrain::shard::{FillCandidate, FillQuery};
 use std::cmp::Reverse;
 use std::collections::{BTreeMap, BinaryHeap};
@@ -282,7 +287,12 @@ impl TileFill {
     pub(super) fn apply(&mut self, cands: &[FillCandidate], env: &FillEnv) {
         let t0 = Instant::now();
         let Some((t, relief, base)) = self.pending.take() else { return };
-        let order: Vec<(f32, usize)> = cands.iter().enumerate().map(|(i, c)| (c.cost, i)).collect();
+        // the candidates that go through the graph cut, laid as merged and ranked with
+        // what they would dam (`dams`)
+        let laid: Vec<Vec<f32>> = cands.iter().take(GRAPH_CUT_SET).map(|c| env.base.lay(&c.pixels, &base)).collect();
+        let mut order: Vec<(f32, usize)> =
+            laid.iter().enumerate().map(|(i, l)| (cands[i].cost + dam_cost(&t, l, relief), i)).collect();
+        order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let (cx, cy) = (t.cx, t.cy);
         let p = self.sub.patch;
         let band = fill_band(p);
@@ -290,7 +300,7 @@ impl TileFill {
             &mut self.sub,
             &t,
             &order,
-            &|i| env.base.lay(&cands[i].pixels, &base),
+            &|i| laid[i].clone(),
             relief,
             SeamLimits { keep_radius: 0.0, band: Some(band), cut_noise: Some((p / 8).max(2)) },
             |i| fill_placement(&cands[i], cx, cy),

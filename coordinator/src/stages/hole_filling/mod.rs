@@ -47,6 +47,7 @@
 //! The fill front of each tile — target selection, priorities, levels across a
 //! hole, seams of fills — is [`front`].
 
+mod dams;
 pub mod front;
 
 pub use front::KNOWN_SHARE;
