@@ -3,8 +3,9 @@
 //! `ridgeline evaluate` (`ridgeline::evaluation`), so changes to the engine are judged
 //! on cases it was not tuned on. Also prints the yardstick: how far the shared real
 //! DEMs are from each other (each against the rest, leave-one-out: landform distance,
-//! spectral slope difference, roughness ratio), the spread a terrain "as real as its
-//! sources" should fall in.
+//! spectral slope difference, roughness ratio, relief contrast ratio), the spread a
+//! terrain "as real as its sources" should fall in. `relief` is the terrain's relief
+//! contrast (`evaluation::relief`) over its sources' weighted figure.
 //!
 //! Sketches (512 x 512): curves (sinusoidal ridges 3 px, valleys 9 px), junctions
 //! (a Y of ridges, a T of valleys), parallel ridges 18 px apart (2 px), strokes
@@ -27,7 +28,7 @@ mod common;
 
 use common::{shared_data, synth};
 use ridgeline::evaluation::quality::seam_score;
-use ridgeline::evaluation::{self, landforms, spectrum, Evaluation, Inputs};
+use ridgeline::evaluation::{self, landforms, relief, spectrum, Evaluation, Inputs};
 use ridgeline_terrain::grid::{Grid, Heightfield};
 use ridgeline_terrain::FeatureKind;
 use std::path::{Path, PathBuf};
@@ -244,12 +245,13 @@ fn centre_crops(dems: &[(String, Heightfield)]) -> Vec<Heightfield> {
 fn row(name: &str, e: &Evaluation, real_seam: f64, straight: usize, seconds: f64) {
     let o = |v: Option<f64>| v.map(|v| format!("{v:>6.2}")).unwrap_or_else(|| format!("{:>6}", "-"));
     println!(
-        "{name:<22} {} {} {:>6.3} {} {} {} {:>6.2} {:>6} {:>6.3} {:>6.1}",
+        "{name:<22} {} {} {:>6.3} {} {} {} {} {:>6.2} {:>6} {:>6.3} {:>6.1}",
         o(e.adherence[FeatureKind::Ridge]),
         o(e.adherence[FeatureKind::Valley]),
         e.landform_distance,
         o(e.spectral_slope_difference),
         o(e.roughness_ratio),
+        o((e.source_relief_contrast.mean > 0.0).then(|| e.relief_contrast.mean / e.source_relief_contrast.mean)),
         o(e.seams.map(|s| s.mean_ratio)),
         real_seam,
         straight,
@@ -273,8 +275,8 @@ fn main() {
     let cache = dir.join("cache");
     println!("ridgeline realism benchmark: 7 drawn sketches x held-out libraries, seed {seed}");
     println!(
-        "{:<22} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6}",
-        "sketch / library", "ridge", "valley", "landf", "slope", "rough", "seam", "(real)", "str64", "repet", "s"
+        "{:<22} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6}",
+        "sketch / library", "ridge", "valley", "landf", "slope", "rough", "relief", "seam", "(real)", "str64", "repet", "s"
     );
     let all = evaluation::load_library(&dems, Some(90.0), None).expect("dems");
     let crops = centre_crops(&all);
@@ -317,8 +319,11 @@ fn main() {
     let forms: Vec<landforms::Landforms> =
         all.iter().map(|(_, h)| landforms::Landforms::of(&landforms::classify(h, 90.0))).collect();
     let spectra: Vec<Option<spectrum::Spectrum>> = all.iter().map(|(_, h)| spectrum::spectrum(h)).collect();
-    let (mut dist, mut slope, mut rough) = (Vec::new(), Vec::new(), Vec::new());
+    let contrasts: Vec<relief::ReliefContrast> = all.iter().map(|(_, h)| relief::relief_contrast(h)).collect();
+    let (mut dist, mut slope, mut rough, mut contrast) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for i in 0..all.len() {
+        let rest: Vec<(relief::ReliefContrast, f64)> = (0..all.len()).filter(|&j| j != i).map(|j| (contrasts[j], 1.0)).collect();
+        contrast.push(contrasts[i].mean / relief::ReliefContrast::mix(&rest).mean);
         let rest: Vec<(landforms::Landforms, f64)> = (0..all.len()).filter(|&j| j != i).map(|j| (forms[j], 1.0)).collect();
         dist.push(forms[i].distance(&landforms::Landforms::mix(&rest)));
         let others: Vec<(spectrum::Spectrum, f64)> =
@@ -336,6 +341,9 @@ fn main() {
     println!("  landform distance        {}", spread(&mut dist));
     println!("  spectral slope difference {}", spread(&mut slope));
     println!("  roughness ratio          {}", spread(&mut rough));
+    println!("  relief contrast ratio    {}", spread(&mut contrast));
+    let mut own: Vec<f64> = contrasts.iter().map(|c| c.mean).collect();
+    println!("  relief contrast (own)    {}", spread(&mut own));
     if std::env::var_os("RIDGELINE_BENCH_KEEP").is_some() {
         println!("sketches and libraries kept in {}", dir.display());
     } else {

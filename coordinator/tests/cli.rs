@@ -319,6 +319,9 @@ fn outputs_tiles_debug_report_and_json_logs() {
     assert!(ev["adherence"]["ridge"].is_number() && ev["adherence"]["valley"].is_number(), "{ev}");
     assert!(report["user_patches"]["ridge"].as_u64().unwrap() > 0, "{report}");
     assert!(ev["seams"]["mean_ratio"].is_number());
+    // a 192 x 160 terrain holds 6 x 5 blocks of 32 cells: 49 neighbouring pairs
+    assert_eq!(ev["relief_contrast"]["pairs"], 49, "{ev}");
+    assert!(ev["source_relief_contrast"]["mean"].as_f64().unwrap() > 0.0, "{ev}");
     let o = bin()
         .args(["evaluate", "--json", "--patch-size", "32", "--terrain"])
         .arg(&out)
@@ -337,6 +340,8 @@ fn outputs_tiles_debug_report_and_json_logs() {
     // from the 16-bit file: the same landforms and repetition as the report's (from the float terrain)
     assert_eq!(e["repetition"], ev["repetition"]);
     assert!((e["landform_distance"].as_f64().unwrap() - ev["landform_distance"].as_f64().unwrap()).abs() < 0.05);
+    let contrast = |v: &serde_json::Value| v["relief_contrast"]["mean"].as_f64().unwrap();
+    assert!((contrast(&e) - contrast(ev)).abs() < 0.05, "{} against {}", contrast(&e), contrast(ev));
     // a provenance of another terrain is refused, naming the file
     let (ok, err) = stderr_of(
         bin()

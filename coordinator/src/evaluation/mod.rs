@@ -19,6 +19,10 @@
 //!   drainage: the share of cells more than [`form::SINK_DEPTH_M`] below the
 //!   depression-filled surface and the share draining to the border, beside the
 //!   sources' shares weighted like the landforms;
+//! - relief contrast ([`relief`]): how much the relief of neighbouring 32-cell blocks
+//!   differs (the mean and 90th percentile of |ln| of their ratio), beside the
+//!   sources' weighted like the landforms: placements from sources of very different
+//!   relief side by side read as a patchwork;
 //! - repetition: the share of the output covered by placements whose source window
 //!   overlaps that of another placement from the same source within
 //!   [`REPEAT_RADIUS_PATCHES`] patches (needs the provenance).
@@ -29,6 +33,7 @@
 pub mod form;
 pub mod landforms;
 pub mod quality;
+pub mod relief;
 pub mod source_figures;
 pub mod spectrum;
 
@@ -90,6 +95,9 @@ pub struct Evaluation {
     pub seams: Option<SeamScore>,
     /// Share of the output copied from a source window already used nearby.
     pub repetition: Option<f64>,
+    /// Relief contrast of neighbouring blocks, and the sources' weighted ([`relief`]).
+    pub relief_contrast: relief::ReliefContrast,
+    pub source_relief_contrast: relief::ReliefContrast,
     /// Ridge centre-line cells against valley centre-line cells (needs the sketch).
     pub ridge_above_valley: form::RidgeAboveValley,
     /// Lowest and highest cell of the terrain, and of the sources that supplied it.
@@ -137,13 +145,19 @@ pub fn evaluate(i: &Inputs) -> Evaluation {
     // the terrain's own figures: the drainage (a priority flood) and the seams, each
     // sequential, beside the landforms and the spectrum (parallel over rows, tiles)
     let provenance = i.provenance.filter(|p| p.cells.len() == i.terrain.data.len());
-    let ((drainage, seams), (classes, own)) = rayon::join(
+    let ((drainage, seams), (classes, (own, contrast))) = rayon::join(
         || {
             let seams = provenance.map(|p| (seam_score(i.terrain, &p.cells), repetition(p, i.patch)));
             (crate::solvers::hydrology::drainage_shares(i.terrain, form::SINK_DEPTH_M), seams)
         },
-        || (landforms::classify(i.terrain, i.cell_m), spectrum::spectrum(i.terrain)),
+        || {
+            let classes = landforms::classify(i.terrain, i.cell_m);
+            (classes, (spectrum::spectrum(i.terrain), relief::relief_contrast(i.terrain)))
+        },
     );
+    e.relief_contrast = contrast;
+    e.source_relief_contrast =
+        relief::ReliefContrast::mix(&used.iter().map(|(f, w)| (f.relief_contrast, *w)).collect::<Vec<_>>());
     if let Some((s, r)) = seams {
         e.seams = Some(s);
         e.repetition = Some(r);
@@ -314,6 +328,15 @@ impl Evaluation {
         row("roughness ratio", opt(self.roughness_ratio, 2), "high/mid-frequency energy vs the sources (1 = as rough)");
         row("seam score", opt(self.seams.map(|s| s.mean_ratio), 2), "gradient jumps across seams / inside patches");
         row("repetition", opt(self.repetition, 3), "share copied from a source window used nearby");
+        let (rc, src) = (&self.relief_contrast, &self.source_relief_contrast);
+        row(
+            "relief contrast",
+            format!("{:.3}", rc.mean),
+            &format!(
+                "neighbouring 32-cell blocks, mean |ln relief ratio|; p90 {:.3}; sources {:.3}, p90 {:.3}",
+                rc.p90, src.mean, src.p90
+            ),
+        );
         let rav = &self.ridge_above_valley;
         row(
             "ridge above nearest valley",

@@ -1,5 +1,5 @@
 //! What an evaluation knows of each source: its landform histogram, elevation range,
-//! drainage shares and power spectrum, at the output's cell size. They are what made
+//! drainage shares, power spectrum and relief contrast, at the output's cell size. They are what made
 //! an evaluation slow (a job's sources are larger than its output, and there are
 //! several), and they depend on nothing but the source's heights and the cell size,
 //! so they are computed once per source and kept: in this process (a service's later
@@ -11,6 +11,7 @@
 
 use super::form;
 use super::landforms::{self, Landforms};
+use super::relief::{relief_contrast, ReliefContrast};
 use super::spectrum::{self, Spectrum};
 use crate::solvers::hydrology::{drainage_shares, DrainageShares};
 use ridgeline_terrain::exemplar_source::digest;
@@ -21,7 +22,7 @@ use std::path::Path;
 use std::sync::{Arc, Mutex, OnceLock};
 
 /// Bump when a figure's definition changes: old cache entries are then not read.
-const FIGURES_VERSION: &str = "source-figures-v1";
+const FIGURES_VERSION: &str = "source-figures-v2";
 /// A cache entry larger than this is not ours: recomputed, not parsed.
 const MAX_ENTRY_BYTES: u64 = 1 << 20;
 
@@ -33,6 +34,7 @@ pub struct SourceFigures {
     pub drainage: DrainageShares,
     /// `None` when the source is smaller than a spectrum tile.
     pub spectrum: Option<Spectrum>,
+    pub relief_contrast: ReliefContrast,
 }
 
 impl SourceFigures {
@@ -43,6 +45,7 @@ impl SourceFigures {
             elevation_range: form::elevation_range(h),
             drainage: drainage_shares(h, form::SINK_DEPTH_M),
             spectrum: spectrum::spectrum(h),
+            relief_contrast: relief_contrast(h),
         }
     }
 }
