@@ -78,8 +78,8 @@ pub fn select_and_merge(
         &t,
         &scored,
         &|i| match &under {
-            Some((b, under)) => b.lay(&cands[i].pixels, under),
-            None => cands[i].pixels.clone(),
+            Some((b, under)) => (b.lay(&cands[i].pixels, under), 0.0),
+            None => (cands[i].pixels.clone(), 0.0),
         },
         relief,
         SeamLimits { keep_radius: p as f32 / 8.0, band: None, cut_noise: None },

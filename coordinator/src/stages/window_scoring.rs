@@ -61,26 +61,36 @@ pub struct Choice {
     pub total: f32,
 }
 
+/// A candidate as merged (patch-sized), and a cost of its own that only the merged
+/// pixels tell (never negative), added to its ranking cost: hole filling's dam cost.
+pub type Merged = (Vec<f32>, f32);
+
 /// Runs the graph cut on the `GRAPH_CUT_SET` first of `order` (indices into `pixels`,
-/// ranked by cost, cheapest first) and returns the best by ranking cost + normalised
-/// cut cost. The cut cost is never negative, so a candidate whose ranking cost alone
-/// exceeds the best total so far cannot win and is not cut: the same choice as
-/// cutting all five, for about a quarter of the cuts (801 of 3,270 on mixed-1024).
+/// ranked by cost, cheapest first) and returns the best by ranking cost + the merged
+/// candidate's own cost + normalised cut cost. Those two are never negative, so a
+/// candidate whose ranking cost alone exceeds the best total so far cannot win and is
+/// neither laid nor cut: the same choice as cutting all five, for about a quarter of
+/// the cuts (801 of 3,270 on mixed-1024).
 pub fn graph_cut_choice(
     win: &Win,
     old: &[f32],
     force: &[Force],
     order: &[(f32, usize)],
-    pixels: &(dyn Fn(usize) -> Vec<f32> + Sync),
+    pixels: &(dyn Fn(usize) -> Merged + Sync),
     relief: f32,
     cost_scale: Option<&[f32]>,
 ) -> Option<Choice> {
     let mut best: Option<Choice> = None;
-    for &(total, index) in order.iter().take(GRAPH_CUT_SET) {
+    for &(ranked, index) in order.iter().take(GRAPH_CUT_SET) {
+        if best.as_ref().is_some_and(|b| ranked > b.total) {
+            continue;
+        }
+        let (merged, own) = pixels(index);
+        let total = ranked + own;
         if best.as_ref().is_some_and(|b| total > b.total) {
             continue;
         }
-        let new = win.crop(&pixels(index));
+        let new = win.crop(&merged);
         let seam = seam_for(win, old, &new, force, cost_scale);
         let norm = if seam.edges > 0 { seam.cost as f32 / (seam.edges as f32 * relief) } else { 0.0 };
         let c = Choice { index, seam, new, total: total + norm };
@@ -99,7 +109,7 @@ pub fn cut_and_merge(
     canvas: &mut Canvas,
     target: &Target,
     order: &[(f32, usize)],
-    pixels: &(dyn Fn(usize) -> Vec<f32> + Sync),
+    pixels: &(dyn Fn(usize) -> Merged + Sync),
     relief: f32,
     limits: SeamLimits,
     placement: impl FnOnce(usize) -> Placement,

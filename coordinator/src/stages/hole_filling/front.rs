@@ -48,7 +48,7 @@ use crate::canvas::{Canvas, Placement, Rect, Win};
 use crate::stages::base_surface::BaseSurface;
 use crate::stages::coarse_level::FormSources;
 use crate::stages::merge::SeamLimits;
-use crate::stages::window_scoring::{cut_and_merge, Target, GRAPH_CUT_SET};
+use crate::stages::window_scoring::{cut_and_merge, Target};
 use ridgeline_terrain::shard::{FillCandidate, FillQuery};
 use std::cmp::Reverse;
 use std::collections::{BTreeMap, BinaryHeap};
@@ -287,12 +287,7 @@ impl TileFill {
     pub(super) fn apply(&mut self, cands: &[FillCandidate], env: &FillEnv) {
         let t0 = Instant::now();
         let Some((t, relief, base)) = self.pending.take() else { return };
-        // the candidates that go through the graph cut, laid as merged and ranked with
-        // what they would dam (`dams`)
-        let laid: Vec<Vec<f32>> = cands.iter().take(GRAPH_CUT_SET).map(|c| env.base.lay(&c.pixels, &base)).collect();
-        let mut order: Vec<(f32, usize)> =
-            laid.iter().enumerate().map(|(i, l)| (cands[i].cost + dam_cost(&t, l, relief), i)).collect();
-        order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let order: Vec<(f32, usize)> = cands.iter().enumerate().map(|(i, c)| (c.cost, i)).collect();
         let (cx, cy) = (t.cx, t.cy);
         let p = self.sub.patch;
         let band = fill_band(p);
@@ -300,7 +295,12 @@ impl TileFill {
             &mut self.sub,
             &t,
             &order,
-            &|i| laid[i].clone(),
+            // each candidate laid as merged, and what it would dam (`dams`)
+            &|i| {
+                let laid = env.base.lay(&cands[i].pixels, &base);
+                let dam = dam_cost(&t, &laid, relief);
+                (laid, dam)
+            },
             relief,
             SeamLimits { keep_radius: 0.0, band: Some(band), cut_noise: Some((p / 8).max(2)) },
             |i| fill_placement(&cands[i], cx, cy),
