@@ -4,10 +4,11 @@ that hold DEMs out, synthesised by one or more ridgeline binaries side by side (
 the previous commit beside the new one), and every figure of the job's report printed
 as a before/after table: adherence, ridge-above-valley both ways, sink area against
 the sources' weighted share, border drainage, elevation range against the sources',
-landform distance, flat share, spectral slope, roughness, seams, the conditioning
+landform distance, flat share, spectral slope, roughness, seams, relief contrast
+against the sources' (where the binary reports it), the conditioning
 stage's time and cuts, total time and peak memory.
 
-Pairs (nine; `--pairs` picks some by name):
+Pairs (ten; `--pairs` picks some by name):
   traced-alaska-1024  / no-alaska   valleys and ridges traced from alaska's drainage
                                     (flow accumulation on the DEM and on its negative)
   traced-rockies-1024 / even        the same from rockies, which `even` holds out
@@ -18,6 +19,7 @@ Pairs (nine; `--pairs` picks some by name):
   massif-4096         / all         broad ridges (40 px) with spurs and valleys
   traced-colorado-4096 / no-colorado
   sparse-4096         / odd
+  traced-norway-1024  / no-norway   the same from norway (fjords), on the 15 without it
 
 usage: scripts/form-bench.py OUT_DIR BINARY[@--flag...] [BINARY ...] [--pairs a,b] [--seed N]
 (a binary is named by its folder; `@--no-sketch-fit` after it adds that flag to its jobs)
@@ -61,6 +63,7 @@ LIBRARIES = {
     "odd": lambda i, f: i % 2 == 1,
     "no-alaska": lambda i, f: f != "alaska.png",
     "no-colorado": lambda i, f: f != "colorado.png",
+    "no-norway": lambda i, f: f != "norway.png",
 }
 
 
@@ -211,6 +214,7 @@ SKETCHES = {
     "massif-4096": (lambda: massif(4096), "all"),
     "traced-colorado-4096": (lambda: traced("colorado.png", 4096), "no-colorado"),
     "sparse-4096": (lambda: sparse(4096), "odd"),
+    "traced-norway-1024": (lambda: traced("norway.png", 1024), "no-norway"),
 }
 
 
@@ -277,6 +281,8 @@ def figures(rep):
         "slope": ev.get("spectral_slope_difference"),
         "rough": ev.get("roughness_ratio"),
         "seam": get(ev, "seams", "mean_ratio"),
+        "relief": get(ev, "relief_contrast", "mean"),
+        "src_relief": get(ev, "source_relief_contrast", "mean"),
         "cut_max": cond.get("max_cut_m"),
         "lowered%": None if cond.get("cells_lowered") is None else 100 * cond["cells_lowered"] / (rep["width"] * rep["height"]),
         "cut10%": None if cond.get("cells_lowered_over_10m") is None else 100 * cond["cells_lowered_over_10m"] / (rep["width"] * rep["height"]),
