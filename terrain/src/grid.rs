@@ -171,46 +171,60 @@ pub fn distance_transform(seeds: &Grid<bool>) -> Grid<f32> {
 /// building a mask first. Exact (Felzenszwalb and Huttenlocher 2012), linear in the
 /// cell count: columns are processed 16 at a time, so the strided pass reads whole
 /// cache lines, and the lower envelope is computed in f64, so coordinates of large
-/// grids (q² beyond f32's 24-bit mantissa) stay exact.
+/// grids (q² beyond f32's 24-bit mantissa) stay exact. Blocks of columns, then rows,
+/// are transformed in parallel (each line on its own, so the result does not depend on
+/// the thread count); the column blocks go [`COLUMN_BATCH`] at a time, so the copies
+/// they are worked in stay a few megabytes whatever the grid.
 pub fn distance_transform_by(w: usize, h: usize, seed: impl Fn(usize) -> bool + Sync) -> Grid<f32> {
+    use rayon::prelude::*;
     const INF: f32 = 1e20;
     const LANES: usize = 16;
-    let mut f: Vec<f32> = (0..w * h).map(|i| if seed(i) { 0.0 } else { INF }).collect();
+    let mut f: Vec<f32> = (0..w * h).into_par_iter().map(|i| if seed(i) { 0.0 } else { INF }).collect();
     let n = w.max(h);
-    let mut scratch = Dt1dScratch::new(n);
-    let mut block = vec![0f32; h * LANES];
-    let mut d = vec![0f32; n];
-    let mut col = vec![0f32; n];
-    // columns, LANES at a time
-    for x0 in (0..w).step_by(LANES) {
-        let lanes = LANES.min(w - x0);
-        for y in 0..h {
-            block[y * LANES..y * LANES + lanes].copy_from_slice(&f[y * w + x0..y * w + x0 + lanes]);
-        }
-        for l in 0..lanes {
+    let scratch = || (Dt1dScratch::new(n), vec![0f32; n], vec![0f32; n]);
+    // columns, LANES at a time: each block copied out, transformed and copied back
+    let starts: Vec<usize> = (0..w).step_by(LANES).collect();
+    for batch in starts.chunks(COLUMN_BATCH) {
+        let f_ref = &f;
+        let blocks: Vec<Vec<f32>> = batch
+            .par_iter()
+            .map_init(scratch, |(sc, d, col), &x0| {
+                let lanes = LANES.min(w - x0);
+                let mut block = vec![0f32; h * LANES];
+                for y in 0..h {
+                    block[y * LANES..y * LANES + lanes].copy_from_slice(&f_ref[y * w + x0..y * w + x0 + lanes]);
+                }
+                for l in 0..lanes {
+                    for y in 0..h {
+                        col[y] = block[y * LANES + l];
+                    }
+                    dt1d(&col[..h], &mut d[..h], sc);
+                    for y in 0..h {
+                        block[y * LANES + l] = d[y];
+                    }
+                }
+                block
+            })
+            .collect();
+        for (&x0, block) in batch.iter().zip(&blocks) {
+            let lanes = LANES.min(w - x0);
             for y in 0..h {
-                col[y] = block[y * LANES + l];
+                f[y * w + x0..y * w + x0 + lanes].copy_from_slice(&block[y * LANES..y * LANES + lanes]);
             }
-            dt1d(&col[..h], &mut d[..h], &mut scratch);
-            for y in 0..h {
-                block[y * LANES + l] = d[y];
-            }
-        }
-        for y in 0..h {
-            f[y * w + x0..y * w + x0 + lanes].copy_from_slice(&block[y * LANES..y * LANES + lanes]);
         }
     }
     // rows
-    for y in 0..h {
-        col[..w].copy_from_slice(&f[y * w..(y + 1) * w]);
-        dt1d(&col[..w], &mut d[..w], &mut scratch);
-        f[y * w..(y + 1) * w].copy_from_slice(&d[..w]);
-    }
-    for v in f.iter_mut() {
-        *v = if *v >= INF * 0.5 { f32::INFINITY } else { v.sqrt() };
-    }
+    f.par_chunks_mut(w.max(1)).for_each_init(scratch, |(sc, d, col), row| {
+        col[..w].copy_from_slice(row);
+        dt1d(&col[..w], &mut d[..w], sc);
+        row.copy_from_slice(&d[..w]);
+    });
+    f.par_iter_mut().for_each(|v| *v = if *v >= INF * 0.5 { f32::INFINITY } else { v.sqrt() });
     Grid::from_vec(w, h, f)
 }
+
+/// Column blocks of [`distance_transform_by`] worked on at once.
+const COLUMN_BATCH: usize = 64;
 
 struct Dt1dScratch {
     v: Vec<usize>,
