@@ -23,19 +23,20 @@
 //! 16), seeds 3 to 6, the depressions the conditioning found fell by about 6% (means
 //! 1,887 → 1,770 and 1,902 → 1,775) and the cells it lowered by 5% and 3% (140.6 k →
 //! 133.5 k, 168.6 k → 163.1 k), the landform distance and adherence unchanged (0.091 →
-//! 0.088, 0.076 → 0.077). It costs hole filling 7% and 13% (medians of five, 0.72 →
-//! 0.77 s on sparse, 0.74 → 0.83 s on mixed; noisy): sparse-1024 floods 1,656 windows,
-//! 2.8 a fill, in 85–95 ms of CPU time (a candidate whose ranking cost alone loses to
-//! the best so far is neither laid nor flooded), and a candidate that dams raises the
-//! bar the others must pass, so more of them are laid and cut. Weight 64 gave about the
-//! same (seeds 4–6: 137.5 k against 134.3 k cells lowered on sparse, 159.7 k against
-//! 163.6 k on mixed). Ten or sixteen candidates from the shards instead of five (seed
-//! 3) lowered up to 11% fewer cells on sparse and none fewer on mixed, for a landform
-//! distance of 0.090–0.093 against 0.083 on sparse and up to 0.3 s more hole filling.
-//! traced-rockies-1024 did not move (its terrain is mostly feature patches). Most of
-//! what the conditioning cuts is not a choice among five candidates: a real window with
-//! its own tilt replaced by a smooth target holds four times the sinks it held (1.3% →
-//! 5.4% of its cells, 16 DEMs).
+//! 0.088, 0.076 → 0.077). It costs hole filling 7% to 18% (medians of five, 0.72 →
+//! 0.77 s on sparse and 0.74 → 0.83 s on mixed; of nine on a quiet machine, 0.67 →
+//! 0.79 s on sparse, whose whole job went 1.68 → 1.74 s): sparse-1024 floods 1,656
+//! windows, 2.8 a fill, in 85–95 ms of CPU time (a candidate whose ranking cost alone
+//! loses to the best so far is neither laid nor flooded), and a candidate that dams
+//! raises the bar the others must pass, so more of them are laid and cut. Weight 64
+//! gave about the same (seeds 4–6: 137.5 k against 134.3 k cells lowered on sparse,
+//! 159.7 k against 163.6 k on mixed). Ten or sixteen candidates from the shards instead
+//! of five (seed 3) lowered up to 11% fewer cells on sparse and none fewer on mixed,
+//! for a landform distance of 0.090–0.093 against 0.083 on sparse and up to 0.3 s more
+//! hole filling. traced-rockies-1024 did not move (its terrain is mostly feature
+//! patches). Most of what the conditioning cuts is not a choice among five candidates:
+//! a real window with its own tilt replaced by a smooth target holds four times the
+//! sinks it held (1.3% → 5.4% of its cells, 16 DEMs).
 
 use crate::solvers::hydrology::water_levels;
 use crate::stages::window_scoring::Target;
