@@ -434,25 +434,28 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
         }
         None => (shards.clone(), times_before),
     };
-    let report = SynthReport::of_job(JobResults {
-        settings: set,
-        cell_size_m: detail.as_ref().map_or(ex.cell_size_m, |d| Some(d.out_cell)),
-        timings: run.timings(),
-        shards: &report_shards,
-        times_before: &times_before,
-        sketch: &sk,
-        user_patches: &ups,
-        canvas: &canvas,
-        placement,
-        filling,
-        sketch_fit,
-        conditioning,
-        erosion,
-        edit,
-        wrap,
-        regions,
-        seam_smoothing,
-        detail: detail_stats,
+    let timings = run.timings();
+    let report = run.install(|| {
+        SynthReport::of_job(JobResults {
+            settings: set,
+            cell_size_m: detail.as_ref().map_or(ex.cell_size_m, |d| Some(d.out_cell)),
+            timings,
+            shards: &report_shards,
+            times_before: &times_before,
+            sketch: &sk,
+            user_patches: &ups,
+            canvas: &canvas,
+            placement,
+            filling,
+            sketch_fit,
+            conditioning,
+            erosion,
+            edit,
+            wrap,
+            regions,
+            seam_smoothing,
+            detail: detail_stats,
+        })
     });
     let out = SynthOutput { sketch_image, features_only, sketch: sk, user_patches: ups, canvas, form, detail_level: coarse_done };
     Ok((out, report))

@@ -152,6 +152,11 @@ impl SynthReport {
         exemplars.sort_by_key(|e| e.source);
         let bounds = sk.bounds();
         let (width, height) = canvas.full_size();
+        // (on the job's pool when called there: the seams by bands of rows)
+        let (adherence, seams) = rayon::join(
+            || sk.lines.map(|kind, g| adherence(&canvas.heights, g, kind, set.patch as f32 / 4.0, 4, 8, &bounds)),
+            || seam_score(&canvas.heights, &canvas.provenance.data),
+        );
         SynthReport {
             width,
             height,
@@ -174,8 +179,8 @@ impl SynthReport {
             regions: r.regions,
             seam_smoothing: r.seam_smoothing,
             detail: r.detail,
-            adherence: sk.lines.map(|kind, g| adherence(&canvas.heights, g, kind, set.patch as f32 / 4.0, 4, 8, &bounds)),
-            seams: seam_score(&canvas.heights, &canvas.provenance.data),
+            adherence,
+            seams,
             shards: ShardReport::of_shards(r.shards, r.times_before),
             peak_rss_bytes: peak_rss_bytes(),
             evaluation: None,

@@ -52,6 +52,13 @@ impl StageContext<'_> {
 }
 
 impl<'a> StageRunner<'a> {
+    /// Runs `f` on the job's pool outside any stage (the report's figures), in the
+    /// caller's span.
+    pub fn install<T: Send>(&self, f: impl FnOnce() -> T + Send) -> T {
+        let span = tracing::Span::current();
+        self.pool.install(move || span.in_scope(f))
+    }
+
     pub fn new(pool: &'a rayon::ThreadPool, progress: &'a Progress, cancel: &'a CancelToken) -> Self {
         StageRunner { pool, progress, cancel, timings: Vec::new() }
     }
