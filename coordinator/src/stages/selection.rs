@@ -18,7 +18,7 @@
 use crate::canvas::{Canvas, Placement};
 use crate::stages::base_surface::BaseSurface;
 use crate::stages::merge::SeamLimits;
-use crate::stages::window_scoring::{cut_and_merge, OwnCosts, Target};
+use crate::stages::window_scoring::{cut_and_merge, Target};
 use rayon::prelude::*;
 use ridgeline_terrain::costs::{
     finite_std, jitter, noise_cost, noise_variances, overlap_cost, repeats, ALPHA_N, ALPHA_O, REPEAT_PENALTY, SEED_JITTER,
@@ -81,7 +81,6 @@ pub fn select_and_merge(
             Some((b, under)) => (b.lay(&cands[i].pixels, under), 0.0),
             None => (cands[i].pixels.clone(), 0.0),
         },
-        OwnCosts::None,
         relief,
         SeamLimits { keep_radius: p as f32 / 8.0, band: None, cut_noise: None },
         |i| {

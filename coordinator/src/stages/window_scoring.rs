@@ -65,67 +65,44 @@ pub struct Choice {
 /// pixels tell (never negative), added to its ranking cost: hole filling's dam cost.
 pub type Merged = (Vec<f32>, f32);
 
-/// Whether the candidates have costs of their own ([`Merged`]'s second half).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum OwnCosts {
-    /// All zero (round 2): a candidate is laid only when it is cut.
-    None,
-    /// Hole filling's dam cost: every candidate is laid and costed before any is cut.
-    Yes,
-}
-
 /// Runs the graph cut on the `GRAPH_CUT_SET` first of `order` (indices into `pixels`,
 /// ranked by cost, cheapest first) and returns the best by ranking cost + the merged
-/// candidate's own cost + normalised cut cost. Those two are never negative, so a
-/// candidate whose ranking cost (plus own cost, where it is known first) exceeds the
-/// best total so far cannot win and is not cut: the same choice as cutting all five,
-/// for about a quarter of the cuts (801 of 3,270 on mixed-1024). With [`OwnCosts::Yes`]
-/// the candidates are cut in order of ranking plus own cost, so one that dams does not
-/// set a bar the others then pass: sparse-1024 (seed 3) cut 756 candidates against
-/// 919 in order of ranking alone, the same bytes, hole filling 0.805 → 0.754 s
-/// (medians of seven, interleaved) for the floods of the candidates never cut.
+/// candidate's own cost + normalised cut cost. Those two are never negative, so the
+/// candidates are taken best first by what is known of them: the ranking cost until a
+/// candidate is laid, then that plus its own cost; the one with the lowest such bound
+/// is laid if it was not, else cut, until the lowest bound exceeds the best total so
+/// far, which no candidate left can then beat. The same choice as cutting all five,
+/// for about a quarter of the cuts (801 of 3,270 on mixed-1024); a candidate that
+/// dams (hole filling's own cost) is cut after those whose ranking plus own cost is
+/// lower, instead of raising the bar they must pass, and one whose ranking cost loses
+/// is never laid.
 pub fn graph_cut_choice(
     win: &Win,
     old: &[f32],
     force: &[Force],
     order: &[(f32, usize)],
     pixels: &(dyn Fn(usize) -> Merged + Sync),
-    own_costs: OwnCosts,
     relief: f32,
     cost_scale: Option<&[f32]>,
 ) -> Option<Choice> {
-    // with own costs, every candidate is laid and costed first and cut in order of
-    // ranking plus own cost: the bar is as low as it can be from the first cut on
-    let mut queue: Vec<(f32, usize, Option<Vec<f32>>)> = order
-        .iter()
-        .take(GRAPH_CUT_SET)
-        .map(|&(ranked, index)| match own_costs {
-            OwnCosts::Yes => {
-                let (merged, own) = pixels(index);
-                (ranked + own, index, Some(merged))
-            }
-            OwnCosts::None => (ranked, index, None),
-        })
-        .collect();
-    if own_costs == OwnCosts::Yes {
-        queue.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-    }
+    // (bound, index, the candidate as laid once it is)
+    let mut open: Vec<(f32, usize, Option<Vec<f32>>)> =
+        order.iter().take(GRAPH_CUT_SET).map(|&(ranked, index)| (ranked, index, None)).collect();
     let mut best: Option<Choice> = None;
-    for (ranked, index, merged) in queue.drain(..) {
-        if best.as_ref().is_some_and(|b| ranked > b.total) {
-            continue;
+    while let Some(k) = (0..open.len()).min_by(|&a, &b| open[a].0.total_cmp(&open[b].0).then(open[a].1.cmp(&open[b].1))) {
+        if best.as_ref().is_some_and(|b| open[k].0 > b.total) {
+            break;
         }
-        let (merged, total) = match merged {
-            Some(m) => (m, ranked),
-            None => {
-                let (m, own) = pixels(index);
-                (m, ranked + own)
-            }
+        let (bound, index, merged) = &mut open[k];
+        let Some(laid) = merged.take() else {
+            let (m, own) = pixels(*index);
+            *bound += own;
+            *merged = Some(m);
+            continue;
         };
-        if best.as_ref().is_some_and(|b| total > b.total) {
-            continue;
-        }
-        let new = win.crop(&merged);
+        let (total, index) = (*bound, *index);
+        open.swap_remove(k);
+        let new = win.crop(&laid);
         let seam = seam_for(win, old, &new, force, cost_scale);
         let norm = if seam.edges > 0 { seam.cost as f32 / (seam.edges as f32 * relief) } else { 0.0 };
         let c = Choice { index, seam, new, total: total + norm };
@@ -145,14 +122,13 @@ pub fn cut_and_merge(
     target: &Target,
     order: &[(f32, usize)],
     pixels: &(dyn Fn(usize) -> Merged + Sync),
-    own_costs: OwnCosts,
     relief: f32,
     limits: SeamLimits,
     placement: impl FnOnce(usize) -> Placement,
 ) -> Option<(usize, MergeStats)> {
     let force = canvas.forces(&target.win, &target.old, limits);
     let noise = limits.cut_noise.map(|k| crate::stages::ragged_edge::cut_noise(canvas, &target.win, k));
-    let choice = graph_cut_choice(&target.win, &target.old, &force, order, pixels, own_costs, relief, noise.as_deref())?;
+    let choice = graph_cut_choice(&target.win, &target.old, &force, order, pixels, relief, noise.as_deref())?;
     let stats = canvas.merge(&target.win, &choice.new, &choice.seam, placement(choice.index));
     Some((choice.index, stats))
 }

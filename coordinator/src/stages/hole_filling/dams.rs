@@ -28,10 +28,10 @@
 //! 0.79 s on sparse, whose whole job went 1.68 → 1.74 s): sparse-1024 floods 1,656
 //! windows, 2.8 a fill, in 85–95 ms of CPU time (a candidate whose ranking cost alone
 //! lost to the best so far was neither laid nor flooded), and a candidate that dams
-//! raised the bar the others had to pass, so more of them were laid and cut. Since
-//! every candidate is now laid and flooded before any is cut, in order of ranking plus
-//! dam cost (`window_scoring::OwnCosts`), that job cuts 756 candidates, not 919, and
-//! its hole filling takes 0.754 s against 0.805 s. Weight 64
+//! raised the bar the others had to pass, so more of them were laid and cut. Taken best
+//! first by ranking plus dam cost once laid (`window_scoring::graph_cut_choice`), that
+//! job cuts 756 candidates, not 919, for the same bytes, and its hole filling takes
+//! 0.675 s against 0.723 s (medians of nine, interleaved). Weight 64
 //! gave about the same (seeds 4–6: 137.5 k against 134.3 k cells lowered on sparse,
 //! 159.7 k against 163.6 k on mixed). Ten or sixteen candidates from the shards instead
 //! of five (seed 3) lowered up to 11% fewer cells on sparse and none fewer on mixed,

@@ -48,7 +48,7 @@ use crate::canvas::{Canvas, Placement, Rect, Win};
 use crate::stages::base_surface::BaseSurface;
 use crate::stages::coarse_level::FormSources;
 use crate::stages::merge::SeamLimits;
-use crate::stages::window_scoring::{cut_and_merge, OwnCosts, Target};
+use crate::stages::window_scoring::{cut_and_merge, Target};
 use ridgeline_terrain::shard::{FillCandidate, FillQuery};
 use std::cmp::Reverse;
 use std::collections::{BTreeMap, BinaryHeap};
@@ -301,7 +301,6 @@ impl TileFill {
                 let dam = dam_cost(&t, &laid, relief);
                 (laid, dam)
             },
-            OwnCosts::Yes,
             relief,
             SeamLimits { keep_radius: 0.0, band: Some(band), cut_noise: Some((p / 8).max(2)) },
             |i| fill_placement(&cands[i], cx, cy),
