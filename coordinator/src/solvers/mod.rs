@@ -1,7 +1,8 @@
 //! The numerical solvers the stages call: [`graph_cut`] (Boykov–Kolmogorov max-flow
 //! for seams), [`poisson`] (screened Poisson reconstruction by conjugate gradients,
 //! preconditioned by [`two_level`]) and [`hydrology`] (priority-flood filling and
-//! routing, basins, drainage area), [`membrane`] (harmonic interpolation of fixed
+//! routing, basins, drainage area; [`tiled_flood`]: its water levels by tiles in
+//! parallel), [`membrane`] (harmonic interpolation of fixed
 //! values), [`pull_push`] (pyramid interpolation of known values) and [`total_order`]
 //! (floats ordered for heaps). None knows about patches or sketches.
 
@@ -10,6 +11,7 @@ pub mod hydrology;
 pub mod membrane;
 pub mod poisson;
 pub mod pull_push;
+pub mod tiled_flood;
 pub mod total_order;
 pub mod two_level;
 

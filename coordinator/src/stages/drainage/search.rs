@@ -4,7 +4,8 @@
 
 use super::floors::{max_held_drop, Floors};
 use super::topology::Topology;
-use crate::solvers::hydrology::{water_levels, D8};
+use crate::solvers::hydrology::D8;
+use crate::solvers::tiled_flood::water_levels_in_parallel;
 use crate::solvers::total_order::Total;
 use ridgeline_terrain::grid::Heightfield;
 use rustc_hash::{FxHashMap, FxHashSet};
@@ -82,7 +83,7 @@ pub(super) fn local_depth(h: &Heightfield, topo: Topology, pit: usize, max_cells
 /// depth below the depression's spill level), lowest first; and every cell's water
 /// level (the depression-filled terrain).
 pub(super) fn pits(h: &Heightfield, topo: Topology) -> (Vec<(f32, usize, f32)>, Vec<f32>) {
-    let level = water_levels(h);
+    let level = water_levels_in_parallel(h);
     let (w, hh) = (h.width, h.height);
     let depth = |i: usize| if h.data[i].is_finite() { level[i] - h.data[i] } else { 0.0 };
     let mut seen = vec![false; w * hh];
