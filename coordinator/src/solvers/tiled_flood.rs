@@ -23,6 +23,10 @@
 //! no higher either; and the chain a label's level comes from is a way out. A test
 //! holds it to `water_levels` on random terrains with plateaus and voids.
 //!
+//! Memory: the levels and a two-byte label a cell (a tile's own labels; its bands of
+//! tiles are flooded in parallel, in place), against one flood's levels and a byte a
+//! cell, so an 8192² job's conditioning stays inside its budget.
+//!
 //! Written here: no crate floods heightfields, let alone by tiles.
 
 use super::hydrology::D8;
@@ -36,27 +40,8 @@ use std::collections::BinaryHeap;
 /// Side of a tile, cells.
 pub const TILE: usize = 256;
 
-/// A cell no label reaches (a void).
-const NONE: u32 = u32::MAX;
-
-/// One tile's flood: its cells' local levels and labels (label 0: the terrain's
-/// outlets; 1..=`labels`: the tile's edge cells).
-struct TileFlood {
-    x0: usize,
-    y0: usize,
-    w: usize,
-    h: usize,
-    level: Vec<f32>,
-    label: Vec<u32>,
-    labels: u32,
-}
-
-impl TileFlood {
-    fn at(&self, x: usize, y: usize) -> (f32, u32) {
-        let i = (y - self.y0) * self.w + (x - self.x0);
-        (self.level[i], self.label[i])
-    }
-}
+/// A cell no label reaches (a void); labels are a tile's own, at most 4 x [`TILE`].
+const NONE: u16 = u16::MAX;
 
 /// Heap key of a level and a tile's cell: the level's bits mapped so that integer
 /// order is the float's total order, then the cell.
@@ -66,51 +51,50 @@ fn key(level: f32, i: usize) -> Reverse<u64> {
     Reverse(((ordered as u64) << 32) | i as u64)
 }
 
-/// Step 1 for the tile at (x0, y0), `tw` x `th` cells (see the module header): the
-/// flood of `hydrology::water_levels` (slopes traced upwards past the heap) on the
-/// tile's cells alone, each cell labelled as it is reached.
-fn flood_tile(h: &Heightfield, x0: usize, y0: usize, tw: usize, th: usize) -> TileFlood {
+/// A tile: its first cell and size.
+#[derive(Clone, Copy)]
+struct Tile {
+    x0: usize,
+    y0: usize,
+    w: usize,
+    h: usize,
+}
+
+/// Step 1 for `tile` (see the module header): the flood of
+/// `hydrology::water_levels` (slopes traced upwards past the heap) on the tile's
+/// cells alone, each cell labelled as it is reached. `level` and `label` are the
+/// rows of the tile's band (the terrain's width each, `level` holding the heights);
+/// returns the tile's label count (label 0: the terrain's outlets, 1..: its edge cells).
+fn flood_tile(h: &Heightfield, tile: Tile, level: &mut [f32], label: &mut [u16]) -> u16 {
     let (w, hh) = (h.width, h.height);
+    let Tile { x0, y0, w: tw, h: th } = tile;
     let finite = |x: usize, y: usize| h.data[y * w + x].is_finite();
-    let n = tw * th;
-    let z: Vec<f32> = (0..th).flat_map(|ly| h.data[(y0 + ly) * w + x0..(y0 + ly) * w + x0 + tw].iter().copied()).collect();
-    let mut level = z.clone();
-    let mut label = vec![NONE; n];
-    let mut done = vec![false; n];
+    // the tile's cell c (tile-local, row by row) in the band's rows
+    let at = |c: usize| (c / tw) * w + x0 + c % tw;
+    let z = |c: usize| h.data[(y0 + c / tw) * w + x0 + c % tw];
+    let mut done = vec![false; tw * th];
     let mut heap: BinaryHeap<Reverse<u64>> = BinaryHeap::new();
-    let mut labels = 0u32;
+    let mut labels = 0u16;
     for ly in 0..th {
         for lx in 0..tw {
             let (x, y) = (x0 + lx, y0 + ly);
-            let i = ly * tw + lx;
-            if !z[i].is_finite() {
-                done[i] = true;
+            let c = ly * tw + lx;
+            if !finite(x, y) {
+                done[c] = true;
                 continue;
             }
             let edge = lx == 0 || ly == 0 || lx + 1 == tw || ly + 1 == th;
-            if !edge {
-                continue;
-            }
             let border = x == 0 || y == 0 || x + 1 == w || y + 1 == hh;
             let beside_void = !border && D8.iter().any(|&(dx, dy)| !finite((x as i64 + dx) as usize, (y as i64 + dy) as usize));
-            label[i] = if border || beside_void {
-                0
-            } else {
-                labels += 1;
-                labels
-            };
-            done[i] = true;
-            heap.push(key(z[i], i));
-        }
-    }
-    // inside the tile, cells beside a void are outlets too
-    for ly in 1..th.saturating_sub(1) {
-        for lx in 1..tw - 1 {
-            let i = ly * tw + lx;
-            if !done[i] && D8.iter().any(|&(dx, dy)| !z[(ly as i64 + dy) as usize * tw + (lx as i64 + dx) as usize].is_finite()) {
-                label[i] = 0;
-                done[i] = true;
-                heap.push(key(z[i], i));
+            if edge || beside_void {
+                label[at(c)] = if border || beside_void {
+                    0
+                } else {
+                    labels += 1;
+                    labels
+                };
+                done[c] = true;
+                heap.push(key(z(c), c));
             }
         }
     }
@@ -143,16 +127,16 @@ fn flood_tile(h: &Heightfield, x0: usize, y0: usize, tw: usize, th: usize) -> Ti
                 None => break,
             },
         };
-        let l = level[c];
+        let (l, lab) = (level[at(c)], label[at(c)]);
         let m = neighbours(c, &mut around);
         for &j in &around[..m] {
             if done[j] {
                 continue;
             }
             done[j] = true;
-            label[j] = label[c];
-            if z[j] <= l {
-                level[j] = l;
+            label[at(j)] = lab;
+            if z(j) <= l {
+                level[at(j)] = l;
                 pit.push(j);
             } else {
                 slope.push(j);
@@ -162,20 +146,22 @@ fn flood_tile(h: &Heightfield, x0: usize, y0: usize, tw: usize, th: usize) -> Ti
         // neighbour not yet reached waits for the flood in the heap
         while let Some(k) = slope.pop() {
             let m = neighbours(k, &mut around);
-            if around[..m].iter().any(|&j| !done[j] && z[j] < z[k]) {
-                heap.push(key(z[k], k));
+            let zk = z(k);
+            if around[..m].iter().any(|&j| !done[j] && z(j) < zk) {
+                heap.push(key(zk, k));
                 continue;
             }
+            let lab = label[at(k)];
             for &j in &around[..m] {
                 if !done[j] {
                     done[j] = true;
-                    label[j] = label[k];
+                    label[at(j)] = lab;
                     slope.push(j);
                 }
             }
         }
     }
-    TileFlood { x0, y0, w: tw, h: th, level, label, labels }
+    labels
 }
 
 /// The water levels of `h` by tiles ([`water_levels_tiled`]) where it has at least
@@ -190,70 +176,66 @@ pub fn water_levels_in_parallel(h: &Heightfield) -> Vec<f32> {
 }
 
 /// The water level of every cell of `h` (voids keep their value), as
-/// `hydrology::water_levels` gives it, by tiles of [`TILE`] cells in parallel.
+/// `hydrology::water_levels` gives it, by tiles of [`TILE`] cells in parallel (bands
+/// of tiles: a label of two bytes a cell beside the levels).
 pub fn water_levels_tiled(h: &Heightfield) -> Vec<f32> {
     let (w, hh) = (h.width, h.height);
     let (ntx, nty) = (w.div_ceil(TILE), hh.div_ceil(TILE));
-    let tiles: Vec<TileFlood> = (0..ntx * nty)
-        .into_par_iter()
-        .map(|t| {
-            let (x0, y0) = ((t % ntx) * TILE, (t / ntx) * TILE);
-            flood_tile(h, x0, y0, TILE.min(w - x0), TILE.min(hh - y0))
-        })
+    let tile = |t: usize| {
+        let (x0, y0) = ((t % ntx) * TILE, (t / ntx) * TILE);
+        Tile { x0, y0, w: TILE.min(w - x0), h: TILE.min(hh - y0) }
+    };
+    let mut level = h.data.clone();
+    let mut label = vec![NONE; w * hh];
+    let counts: Vec<Vec<u16>> = level
+        .par_chunks_mut(TILE * w)
+        .zip(label.par_chunks_mut(TILE * w))
+        .enumerate()
+        .map(|(ty, (lv, lb))| (0..ntx).map(|tx| flood_tile(h, tile(ty * ntx + tx), lv, lb)).collect())
         .collect();
     // global label ids: 0 the outlets, then each tile's labels in turn
-    let mut first = vec![0u32; tiles.len()];
+    let mut first = vec![0u32; ntx * nty];
     let mut next = 1u32;
-    for (f, t) in first.iter_mut().zip(&tiles) {
+    for (f, &c) in first.iter_mut().zip(counts.iter().flatten()) {
         *f = next - 1;
-        next += t.labels;
+        next += u32::from(c);
     }
-    let global = |t: usize, l: u32| if l == 0 || l == NONE { l } else { first[t] + l };
     let tile_of = |x: usize, y: usize| (y / TILE) * ntx + x / TILE;
-    // step 2: the lowest passage between each pair of labels, tile by tile (a cell's
+    let global = |x: usize, y: usize| match label[y * w + x] {
+        0 => 0,
+        NONE => u32::MAX,
+        l => first[tile_of(x, y)] + u32::from(l),
+    };
+    // step 2: the lowest passage between each pair of labels, band by band (a cell's
     // pairs to its east, south-east, south and south-west neighbours: each pair once)
-    let passages: Vec<FxHashMap<(u32, u32), f32>> = tiles
-        .par_iter()
-        .enumerate()
-        .map(|(t, tile)| {
+    let passages: Vec<FxHashMap<(u32, u32), f32>> = (0..nty)
+        .into_par_iter()
+        .map(|ty| {
             let mut low: FxHashMap<(u32, u32), f32> = FxHashMap::default();
-            let mut pass = |a: u32, b: u32, lu: f32, lv: f32| {
-                let p = if lv > lu { lv } else { lu };
-                let e = low.entry((a.min(b), a.max(b))).or_insert(p);
-                if p < *e {
-                    *e = p;
-                }
-            };
-            let (tw, th) = (tile.w, tile.h);
-            for ly in 0..th {
-                for lx in 0..tw {
-                    let i = ly * tw + lx;
-                    let a = tile.label[i];
-                    if a == NONE {
+            for y in ty * TILE..((ty + 1) * TILE).min(hh) {
+                for x in 0..w {
+                    let i = y * w + x;
+                    if label[i] == NONE {
                         continue;
                     }
                     for (dx, dy) in [(1i64, 0i64), (1, 1), (0, 1), (-1, 1)] {
-                        let (nx, ny) = (lx as i64 + dx, ly as i64 + dy);
-                        if nx >= 0 && nx < tw as i64 && ny < th as i64 {
-                            // within the tile
-                            let j = ny as usize * tw + nx as usize;
-                            let b = tile.label[j];
-                            if b != a && b != NONE {
-                                pass(global(t, a), global(t, b), tile.level[i], tile.level[j]);
+                        let (nx, ny) = (x as i64 + dx, y as i64 + dy);
+                        if nx < 0 || nx >= w as i64 || ny >= hh as i64 {
+                            continue;
+                        }
+                        let (nx, ny) = (nx as usize, ny as usize);
+                        let j = ny * w + nx;
+                        // (within one tile, the same label is no passage)
+                        if label[j] == NONE || (label[j] == label[i] && tile_of(nx, ny) == tile_of(x, y)) {
+                            continue;
+                        }
+                        let (a, b) = (global(x, y), global(nx, ny));
+                        if a != b {
+                            let p = if level[j] > level[i] { level[j] } else { level[i] };
+                            let e = low.entry((a.min(b), a.max(b))).or_insert(p);
+                            if p < *e {
+                                *e = p;
                             }
-                            continue;
-                        }
-                        // across the tile's edge
-                        let (gx, gy) = (tile.x0 as i64 + nx, tile.y0 as i64 + ny);
-                        if gx < 0 || gx >= w as i64 || gy >= hh as i64 {
-                            continue;
-                        }
-                        let (gx, gy) = (gx as usize, gy as usize);
-                        let u = tile_of(gx, gy);
-                        let (lv, b) = tiles[u].at(gx, gy);
-                        let (a, b) = (global(t, a), global(u, b));
-                        if b != NONE && a != b {
-                            pass(a, b, tile.level[i], lv);
                         }
                     }
                 }
@@ -289,7 +271,7 @@ pub fn water_levels_tiled(h: &Heightfield) -> Vec<f32> {
     let mut settled = vec![false; n];
     drain[0] = f32::NEG_INFINITY;
     let mut heap = BinaryHeap::new();
-    heap.push(Reverse((Total(f32::NEG_INFINITY), 0)));
+    heap.push(Reverse((Total(f32::NEG_INFINITY), 0usize)));
     while let Some(Reverse((Total(d), a))) = heap.pop() {
         if settled[a] {
             continue;
@@ -303,21 +285,15 @@ pub fn water_levels_tiled(h: &Heightfield) -> Vec<f32> {
             }
         }
     }
-    let mut level = vec![0f32; w * hh];
     level.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
         for (x, v) in row.iter_mut().enumerate() {
-            let t = tile_of(x, y);
-            let (local, l) = tiles[t].at(x, y);
-            *v = if l == NONE {
-                local
-            } else {
-                let d = drain[global(t, l) as usize];
-                if d > local {
-                    d
-                } else {
-                    local
+            let l = global(x, y);
+            if l != u32::MAX {
+                let d = drain[l as usize];
+                if d > *v {
+                    *v = d;
                 }
-            };
+            }
         }
     });
     level
