@@ -51,10 +51,45 @@ pub struct Flooded {
 
 /// The heap key of a level and a cell: the level's bits mapped so that integer order
 /// is the float's total order, then the index (ties broken by cell index).
-fn key(level: f32, i: usize) -> Reverse<u64> {
+pub(crate) fn key(level: f32, i: usize) -> Reverse<u64> {
     let b = level.to_bits();
     let ordered = if b >> 31 == 1 { !b } else { b | 0x8000_0000 };
     Reverse(((ordered as u64) << 32) | i as u64)
+}
+
+/// The 8-neighbours of a cell of a `w` x `h` grid, as indices: the floods' inner loop
+/// (directly by offsets away from the border).
+pub(crate) struct Neighbours8 {
+    w: usize,
+    h: usize,
+    offsets: [isize; 8],
+}
+
+impl Neighbours8 {
+    pub(crate) fn new(w: usize, h: usize) -> Self {
+        Neighbours8 { w, h, offsets: D8.map(|(dx, dy)| dy as isize * w as isize + dx as isize) }
+    }
+
+    /// Writes the neighbours of cell `c` into `out` ([`D8`] order) and returns how many.
+    pub(crate) fn of(&self, c: usize, out: &mut [usize; 8]) -> usize {
+        let (w, h) = (self.w, self.h);
+        let (x, y) = (c % w, c / w);
+        if x > 0 && y > 0 && x + 1 < w && y + 1 < h {
+            for (o, d) in out.iter_mut().zip(self.offsets) {
+                *o = c.wrapping_add_signed(d);
+            }
+            return 8;
+        }
+        let mut k = 0;
+        for &(dx, dy) in &D8 {
+            let (nx, ny) = (x as i64 + dx, y as i64 + dy);
+            if nx >= 0 && ny >= 0 && (nx as usize) < w && (ny as usize) < h {
+                out[k] = ny as usize * w + nx as usize;
+                k += 1;
+            }
+        }
+        k
+    }
 }
 
 /// Where a flood starts: voids are settled at once (`settled`), and the cells on the
@@ -147,25 +182,8 @@ pub fn water_levels(h: &Heightfield) -> Vec<f32> {
     seed(h, &mut done, |i| heap.push(key(z[i], i)), |_| {});
     let mut pit: Vec<u32> = Vec::new();
     let mut slope: Vec<u32> = Vec::new();
-    let offsets = D8.map(|(dx, dy)| dy as isize * w as isize + dx as isize);
-    let neighbours = |c: usize, out: &mut [usize; 8]| -> usize {
-        let (x, y) = (c % w, c / w);
-        if x > 0 && y > 0 && x + 1 < w && y + 1 < hh {
-            for (o, d) in out.iter_mut().zip(offsets) {
-                *o = c.wrapping_add_signed(d);
-            }
-            return 8;
-        }
-        let mut k = 0;
-        for &(dx, dy) in &D8 {
-            let (nx, ny) = (x as i64 + dx, y as i64 + dy);
-            if nx >= 0 && ny >= 0 && (nx as usize) < w && (ny as usize) < hh {
-                out[k] = ny as usize * w + nx as usize;
-                k += 1;
-            }
-        }
-        k
-    };
+    let grid = Neighbours8::new(w, hh);
+    let neighbours = |c: usize, out: &mut [usize; 8]| grid.of(c, out);
     let mut around = [0usize; 8];
     loop {
         let c = match pit.pop() {

@@ -29,7 +29,7 @@
 //!
 //! Written here: no crate floods heightfields, let alone by tiles.
 
-use super::hydrology::D8;
+use super::hydrology::{key, Neighbours8, D8};
 use super::total_order::Total;
 use rayon::prelude::*;
 use ridgeline_terrain::grid::Heightfield;
@@ -42,14 +42,6 @@ pub const TILE: usize = 256;
 
 /// A cell no label reaches (a void); labels are a tile's own, at most 4 x [`TILE`].
 const NONE: u16 = u16::MAX;
-
-/// Heap key of a level and a tile's cell: the level's bits mapped so that integer
-/// order is the float's total order, then the cell.
-fn key(level: f32, i: usize) -> Reverse<u64> {
-    let b = level.to_bits();
-    let ordered = if b >> 31 == 1 { !b } else { b | 0x8000_0000 };
-    Reverse(((ordered as u64) << 32) | i as u64)
-}
 
 /// A tile: its first cell and size.
 #[derive(Clone, Copy)]
@@ -98,25 +90,8 @@ fn flood_tile(h: &Heightfield, tile: Tile, level: &mut [f32], label: &mut [u16])
             }
         }
     }
-    let offsets = D8.map(|(dx, dy)| dy as isize * tw as isize + dx as isize);
-    let neighbours = |c: usize, out: &mut [usize; 8]| -> usize {
-        let (x, y) = (c % tw, c / tw);
-        if x > 0 && y > 0 && x + 1 < tw && y + 1 < th {
-            for (o, d) in out.iter_mut().zip(offsets) {
-                *o = c.wrapping_add_signed(d);
-            }
-            return 8;
-        }
-        let mut k = 0;
-        for &(dx, dy) in &D8 {
-            let (nx, ny) = (x as i64 + dx, y as i64 + dy);
-            if nx >= 0 && ny >= 0 && (nx as usize) < tw && (ny as usize) < th {
-                out[k] = ny as usize * tw + nx as usize;
-                k += 1;
-            }
-        }
-        k
-    };
+    let grid = Neighbours8::new(tw, th);
+    let neighbours = |c: usize, out: &mut [usize; 8]| grid.of(c, out);
     let (mut pit, mut slope): (Vec<usize>, Vec<usize>) = (Vec::new(), Vec::new());
     let mut around = [0usize; 8];
     loop {
