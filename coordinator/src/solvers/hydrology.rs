@@ -183,7 +183,6 @@ pub fn water_levels(h: &Heightfield) -> Vec<f32> {
     let mut pit: Vec<u32> = Vec::new();
     let mut slope: Vec<u32> = Vec::new();
     let grid = Neighbours8::new(w, hh);
-    let neighbours = |c: usize, out: &mut [usize; 8]| grid.of(c, out);
     let mut around = [0usize; 8];
     loop {
         let c = match pit.pop() {
@@ -194,7 +193,7 @@ pub fn water_levels(h: &Heightfield) -> Vec<f32> {
             },
         };
         let l = level[c];
-        let m = neighbours(c, &mut around);
+        let m = grid.of(c, &mut around);
         for &j in &around[..m] {
             if done[j] {
                 continue;
@@ -211,7 +210,7 @@ pub fn water_levels(h: &Heightfield) -> Vec<f32> {
         // neighbour not yet reached waits for the flood in the heap
         while let Some(k) = slope.pop() {
             let k = k as usize;
-            let m = neighbours(k, &mut around);
+            let m = grid.of(k, &mut around);
             if around[..m].iter().any(|&j| !done[j] && z[j] < z[k]) {
                 heap.push(key(z[k], k));
                 continue;

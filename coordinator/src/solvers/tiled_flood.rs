@@ -57,7 +57,8 @@ struct Tile {
 /// cells alone, each cell labelled as it is reached. `level` and `label` are the
 /// rows of the tile's band (the terrain's width each, `level` holding the heights);
 /// returns the tile's label count (label 0: the terrain's outlets, 1..: its edge cells).
-fn flood_tile(h: &Heightfield, tile: Tile, level: &mut [f32], label: &mut [u16]) -> u16 {
+/// `any_void`: whether the terrain has voids (else no cell is looked at for one beside it).
+fn flood_tile(h: &Heightfield, tile: Tile, any_void: bool, level: &mut [f32], label: &mut [u16]) -> u16 {
     let (w, hh) = (h.width, h.height);
     let Tile { x0, y0, w: tw, h: th } = tile;
     let finite = |x: usize, y: usize| h.data[y * w + x].is_finite();
@@ -77,7 +78,8 @@ fn flood_tile(h: &Heightfield, tile: Tile, level: &mut [f32], label: &mut [u16])
             }
             let edge = lx == 0 || ly == 0 || lx + 1 == tw || ly + 1 == th;
             let border = x == 0 || y == 0 || x + 1 == w || y + 1 == hh;
-            let beside_void = !border && D8.iter().any(|&(dx, dy)| !finite((x as i64 + dx) as usize, (y as i64 + dy) as usize));
+            let beside_void =
+                any_void && !border && D8.iter().any(|&(dx, dy)| !finite((x as i64 + dx) as usize, (y as i64 + dy) as usize));
             if edge || beside_void {
                 label[at(c)] = if border || beside_void {
                     0
@@ -91,7 +93,6 @@ fn flood_tile(h: &Heightfield, tile: Tile, level: &mut [f32], label: &mut [u16])
         }
     }
     let grid = Neighbours8::new(tw, th);
-    let neighbours = |c: usize, out: &mut [usize; 8]| grid.of(c, out);
     let (mut pit, mut slope): (Vec<usize>, Vec<usize>) = (Vec::new(), Vec::new());
     let mut around = [0usize; 8];
     loop {
@@ -103,7 +104,7 @@ fn flood_tile(h: &Heightfield, tile: Tile, level: &mut [f32], label: &mut [u16])
             },
         };
         let (l, lab) = (level[at(c)], label[at(c)]);
-        let m = neighbours(c, &mut around);
+        let m = grid.of(c, &mut around);
         for &j in &around[..m] {
             if done[j] {
                 continue;
@@ -120,7 +121,7 @@ fn flood_tile(h: &Heightfield, tile: Tile, level: &mut [f32], label: &mut [u16])
         // up the slopes reached: each cell stands at its own height; one with a lower
         // neighbour not yet reached waits for the flood in the heap
         while let Some(k) = slope.pop() {
-            let m = neighbours(k, &mut around);
+            let m = grid.of(k, &mut around);
             let zk = z(k);
             if around[..m].iter().any(|&j| !done[j] && z(j) < zk) {
                 heap.push(key(zk, k));
@@ -160,13 +161,14 @@ pub fn water_levels_tiled(h: &Heightfield) -> Vec<f32> {
         let (x0, y0) = ((t % ntx) * TILE, (t / ntx) * TILE);
         Tile { x0, y0, w: TILE.min(w - x0), h: TILE.min(hh - y0) }
     };
+    let any_void = h.data.iter().any(|v| !v.is_finite());
     let mut level = h.data.clone();
     let mut label = vec![NONE; w * hh];
     let counts: Vec<Vec<u16>> = level
         .par_chunks_mut(TILE * w)
         .zip(label.par_chunks_mut(TILE * w))
         .enumerate()
-        .map(|(ty, (lv, lb))| (0..ntx).map(|tx| flood_tile(h, tile(ty * ntx + tx), lv, lb)).collect())
+        .map(|(ty, (lv, lb))| (0..ntx).map(|tx| flood_tile(h, tile(ty * ntx + tx), any_void, lv, lb)).collect())
         .collect();
     // global label ids: 0 the outlets, then each tile's labels in turn
     let mut first = vec![0u32; ntx * nty];
