@@ -107,8 +107,15 @@ pub fn count_by_kind(ups: &[UserPatch]) -> PerKind<usize> {
 /// order (an edit or a region remakes only its own area: `stages::editing`,
 /// `stages::regions`).
 pub fn within(ups: &[UserPatch], inside: &ridgeline_terrain::grid::Grid<bool>) -> Vec<UserPatch> {
+    let keep: Vec<bool> = ups.iter().map(|u| inside.get(u.cx, u.cy)).collect();
+    kept(ups, &keep)
+}
+
+/// The user patches whose `keep` is set, numbered anew in their order.
+pub fn kept(ups: &[UserPatch], keep: &[bool]) -> Vec<UserPatch> {
     ups.iter()
-        .filter(|u| inside.get(u.cx, u.cy))
+        .zip(keep)
+        .filter_map(|(u, &k)| k.then_some(u))
         .cloned()
         .enumerate()
         .map(|(i, mut u)| {

@@ -161,7 +161,7 @@ pub fn plan(sk: &SketchFeatures, lib: &LibraryForm, patch: usize, asked: Option<
     let mut held = vec![PerKind::<Held>::default(); cw * ch];
     for (kind, g) in sk.lines.iter() {
         let strokes: Vec<&Stroke> = sk.strokes.iter().filter(|s| s.pen == crate::stages::sketch::Pen::Draw(kind)).collect();
-        let index = SegmentIndex::new(&strokes);
+        let index = SegmentIndex::new(&strokes, SegmentIndex::NEAR);
         for p in g.pixels() {
             let (x, y) = g.xy(p);
             let (width, elevation) = index.nearest(x as f32 + 0.5, y as f32 + 0.5).unwrap_or((3.0, None));
@@ -381,6 +381,15 @@ fn nearest_scale(held: &[f32], cw: usize, ch: usize, fallback: f32) -> Vec<f32> 
     out.iter().map(|&s| if s > 0.0 { s } else { fallback }).collect()
 }
 
+/// The width of the widest stroke of `kind` within `radius` cells of each of `cells`
+/// (0 where none is): the scale of the landform a cell of a stroke belongs to, its
+/// tapering ends and a raster's skeleton spurs into an end cap included.
+pub fn widest_stroke_near(sk: &SketchFeatures, kind: FeatureKind, cells: &[(usize, usize)], radius: f32) -> Vec<f32> {
+    let strokes: Vec<&Stroke> = sk.strokes.iter().filter(|s| s.pen == crate::stages::sketch::Pen::Draw(kind)).collect();
+    let index = SegmentIndex::new(&strokes, radius);
+    cells.iter().map(|&(x, y)| index.widest_within(x as f32 + 0.5, y as f32 + 0.5, radius)).collect()
+}
+
 /// The segments of some strokes, bucketed, to find the stroke nearest a cell.
 struct SegmentIndex<'a> {
     strokes: &'a [&'a Stroke],
@@ -391,12 +400,17 @@ struct SegmentIndex<'a> {
 impl<'a> SegmentIndex<'a> {
     const BUCKET: f32 = 32.0;
 
-    fn new(strokes: &'a [&'a Stroke]) -> Self {
+    /// How far past a segment's pen it is bucketed for [`SegmentIndex::nearest`].
+    const NEAR: f32 = 8.0;
+
+    /// Every segment is listed in each bucket within its pen's half width plus
+    /// `margin` of it.
+    fn new(strokes: &'a [&'a Stroke], margin: f32) -> Self {
         let mut lists: std::collections::HashMap<(usize, usize), Vec<(usize, usize)>> = Default::default();
         for (si, s) in strokes.iter().enumerate() {
             for k in 0..s.points.len() {
                 let (a, b) = (s.points[k], s.points[(k + 1).min(s.points.len() - 1)]);
-                let r = 0.5 * s.width_at(k).max(s.width_at((k + 1).min(s.points.len() - 1))) + 8.0;
+                let r = 0.5 * s.width_at(k).max(s.width_at((k + 1).min(s.points.len() - 1))) + margin;
                 let cell = |v: f32| (v.max(0.0) / Self::BUCKET) as usize;
                 // in pieces a bucket long, so a long diagonal covers the buckets along
                 // it, not its bounding box's
@@ -421,6 +435,22 @@ impl<'a> SegmentIndex<'a> {
         SegmentIndex { strokes, bucket: Self::BUCKET, lists }
     }
 
+    /// The widest pen of the segments within `radius` of (x, y) (0 if none), the
+    /// index built with a margin of at least `radius`.
+    fn widest_within(&self, x: f32, y: f32, radius: f32) -> f32 {
+        let key = ((x.max(0.0) / self.bucket) as usize, (y.max(0.0) / self.bucket) as usize);
+        let mut widest = 0f32;
+        for &(si, k) in self.lists.get(&key).into_iter().flatten() {
+            let s = self.strokes[si];
+            let k1 = (k + 1).min(s.points.len() - 1);
+            let (a, b) = (s.points[k], s.points[k1]);
+            if segment_distance2(a, b, x, y).0 <= radius * radius {
+                widest = widest.max(s.width_at(k)).max(s.width_at(k1));
+            }
+        }
+        widest
+    }
+
     /// The width and elevation (if it carries one) of the stroke nearest (x, y), at
     /// the point of it nearest.
     fn nearest(&self, x: f32, y: f32) -> Option<(f32, Option<f32>)> {
@@ -429,11 +459,7 @@ impl<'a> SegmentIndex<'a> {
         for &(si, k) in self.lists.get(&key)? {
             let s = self.strokes[si];
             let k1 = (k + 1).min(s.points.len() - 1);
-            let (a, b) = (s.points[k], s.points[k1]);
-            let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-            let len2 = dx * dx + dy * dy;
-            let t = if len2 > 0.0 { (((x - a[0]) * dx + (y - a[1]) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
-            let d2 = (a[0] + t * dx - x).powi(2) + (a[1] + t * dy - y).powi(2);
+            let (d2, t) = segment_distance2(s.points[k], s.points[k1], x, y);
             if best.is_none_or(|b| d2 < b.0) {
                 best = Some((d2, (si, k, t)));
             }
@@ -445,6 +471,15 @@ impl<'a> SegmentIndex<'a> {
         let elevation = s.elevations.as_ref().map(|e| e[k] + t * (e[k1] - e[k]));
         Some((width, elevation))
     }
+}
+
+/// The squared distance from (x, y) to the segment a–b, and where along it (0..1) the
+/// nearest point lies.
+fn segment_distance2(a: [f32; 2], b: [f32; 2], x: f32, y: f32) -> (f32, f32) {
+    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+    let len2 = dx * dx + dy * dy;
+    let t = if len2 > 0.0 { (((x - a[0]) * dx + (y - a[1]) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
+    ((a[0] + t * dx - x).powi(2) + (a[1] + t * dy - y).powi(2), t)
 }
 
 /// The target over the whole output, for the debug view.
