@@ -8,8 +8,8 @@
 //
 // Same bytes on any hardware, as in round1.wgsl: the f32 cost computed here (overlap
 // as a two-pass RMS of the height difference with its mean removed, shifted by the
-// first difference so the sums do not cancel; plus the noise, coherence, repetition
-// and seed terms) is only a filter. The kernel returns every candidate within DELTA
+// first difference so the sums do not cancel; plus the noise, relief, coherence,
+// repetition and seed terms) is only a filter. The kernel returns every candidate within DELTA
 // of the target's k-th smallest filter cost, and the worker re-scores those on the CPU
 // in the ranking form (`fill_scoring::exact_cost`: f64 sums in a fixed lane order).
 //
@@ -19,6 +19,7 @@
 const ALPHA_O: f32 = 1.0;
 const ALPHA_N: f32 = 0.1;
 const BETA_C: f32 = 0.3;
+const ALPHA_R: f32 = 0.2;
 const REPEAT_PENALTY: f32 = 2.0;
 
 struct Cand {
@@ -26,15 +27,15 @@ struct Cand {
     x: u32,
     y: u32,
     _pad0: u32,
-    noise: vec4<f32>,  // the 3 noise levels, then 0
+    noise: vec4<f32>,  // the 3 noise levels, then the relief (ln, about its plane)
 }
 
 struct Target {
     sample_start: u32, // into `sample_val` and, per variant, `sample_idx`
     sample_count: u32,
     relief: f32,
-    has_noise: u32,
-    noise: vec4<f32>,
+    has_noise: u32,    // bit 0: the noise levels are known; bit 1: the relief is
+    noise: vec4<f32>,  // as Cand's
     coh_start: u32,    // into `coherence`
     coh_count: u32,
     avoid_start: u32,  // into `avoid`
@@ -100,9 +101,13 @@ fn candidate_cost(t: Target, i: u32) -> f32 {
     let cand = cands[c];
     let co = overlap(t, c, v) / t.relief;
     var cn = 0.0;
-    if t.has_noise != 0u {
+    if (t.has_noise & 1u) != 0u {
         let d = t.noise - cand.noise;
         cn = sqrt(d.x * d.x + d.y * d.y + d.z * d.z) / 3.0;
+    }
+    var cr = 0.0;
+    if (t.has_noise & 2u) != 0u {
+        cr = ALPHA_R * abs(t.noise.w - cand.noise.w);
     }
     var coh = 0.0;
     for (var j = 0u; j < t.coh_count; j++) {
@@ -122,7 +127,7 @@ fn candidate_cost(t: Target, i: u32) -> f32 {
             break;
         }
     }
-    return ALPHA_O * co + ALPHA_N * cn - BETA_C * coh + rep + jitter[i];
+    return ALPHA_O * co + ALPHA_N * cn + cr - BETA_C * coh + rep + jitter[i];
 }
 
 @compute @workgroup_size(64)

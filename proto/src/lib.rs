@@ -11,8 +11,11 @@ pub mod v1 {
 /// `FeaturelessPool` (hole-fill scoring runs where the pool lives); 3 made feature
 /// kinds an enum with per-kind lists (no more `valley` flag and ridge/valley count
 /// pairs), prepares shards at levels (every score call names one) and carries
-/// exemplars of three kinds: stored DEM files, stored samples and generator recipes.
-pub const PROTOCOL_VERSION: u32 = 3;
+/// exemplars of three kinds: stored DEM files, stored samples and generator recipes;
+/// 4 ranks hole fills with a relief term (`costs::ALPHA_R`): the messages are as in
+/// 3, but a worker of 3 would rank the same fill's candidates otherwise, and the
+/// terrain would depend on which worker held a shard.
+pub const PROTOCOL_VERSION: u32 = 4;
 
 /// Layout version of the `FillRequest` / `FillReply` messages.
 pub const FILL_VERSION: u32 = 1;

@@ -29,6 +29,61 @@ pub const REPEAT_PENALTY: f32 = 2.0;
 /// source in the library.
 pub const BETA_C: f32 = 0.3;
 
+/// Weight of hole filling's relief term: a featureless candidate whose relief (its
+/// height's standard deviation about its best-fit plane, [`plane_relief_ln`]) differs
+/// from that of the target window's known cells by a factor r costs `ALPHA_R |ln r|`
+/// more. The overlap cost alone prefers smooth candidates (one that does not correlate
+/// with a rough overlap costs about the overlap's own deviation, a rough one that
+/// does not correlate costs more), so fills drifted to the library's flattest sources
+/// and neighbouring fills differed in relief more than neighbouring ground of any
+/// source does (issue 25, item 3: relief contrast).
+pub const ALPHA_R: f32 = 0.2;
+
+/// Fewest samples [`plane_relief_ln`] estimates a relief from.
+pub const RELIEF_MIN_SAMPLES: usize = 16;
+
+/// ln(1 m + the standard deviation of heights `v` about their least-squares plane
+/// over positions (x, y)): the relief of a patch or of a window's known cells, with
+/// its tilt (which the merge replaces by the base surface) left out. `None` with
+/// fewer than [`RELIEF_MIN_SAMPLES`] points or a degenerate layout (all on a line).
+/// f64 sums in the points' order: the same value on every machine.
+pub fn plane_relief_ln(points: impl Iterator<Item = (f32, f32, f32)> + Clone) -> Option<f32> {
+    let (mut n, mut sx, mut sy, mut sv) = (0f64, 0f64, 0f64, 0f64);
+    for (x, y, v) in points.clone() {
+        n += 1.0;
+        sx += x as f64;
+        sy += y as f64;
+        sv += v as f64;
+    }
+    if n < RELIEF_MIN_SAMPLES as f64 {
+        return None;
+    }
+    let (mx, my, mv) = (sx / n, sy / n, sv / n);
+    let (mut xx, mut xy, mut yy, mut xv, mut yv, mut vv) = (0f64, 0f64, 0f64, 0f64, 0f64, 0f64);
+    for (x, y, v) in points {
+        let (dx, dy, dv) = (x as f64 - mx, y as f64 - my, v as f64 - mv);
+        xx += dx * dx;
+        xy += dx * dy;
+        yy += dy * dy;
+        xv += dx * dv;
+        yv += dy * dv;
+        vv += dv * dv;
+    }
+    let det = xx * yy - xy * xy;
+    if det <= 1e-9 * (xx * yy).max(1e-30) {
+        return None;
+    }
+    let (gx, gy) = ((xv * yy - yv * xy) / det, (yv * xx - xv * xy) / det);
+    // residual sum of squares of the plane fit
+    let rss = (vv - gx * xv - gy * yv).max(0.0);
+    Some(((rss / n).sqrt() + 1.0).ln() as f32)
+}
+
+/// The relief of a square `size`² patch, all of it ([`plane_relief_ln`]).
+pub fn patch_relief_ln(p: &[f32], size: usize) -> Option<f32> {
+    plane_relief_ln(p.iter().enumerate().map(move |(i, &v)| ((i % size) as f32, (i / size) as f32, v)))
+}
+
 /// Deterministic hash of the seed and a candidate identity to [0, 1).
 pub fn jitter(seed: u64, parts: &[u64]) -> f32 {
     let mut h = seed ^ 0x9E37_79B9_7F4A_7C15;
@@ -214,6 +269,25 @@ pub fn noise_cost(a: &[f32; NOISE_LEVELS], b: &[f32; NOISE_LEVELS]) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn plane_relief_ignores_the_tilt_and_measures_the_rest() {
+        let size = 32;
+        let bumps = |a: f32| -> Vec<f32> {
+            (0..size * size).map(|i| ((i % size) as f32 * 0.7).sin() * ((i / size) as f32 * 0.9).cos() * a).collect()
+        };
+        let tilted: Vec<f32> =
+            bumps(40.0).iter().enumerate().map(|(i, v)| v + 25.0 * (i % size) as f32 - 9.0 * (i / size) as f32).collect();
+        let (flat, tilt) = (patch_relief_ln(&bumps(40.0), size).unwrap(), patch_relief_ln(&tilted, size).unwrap());
+        assert!((flat - tilt).abs() < 1e-3, "a plane added changes nothing: {flat} {tilt}");
+        // ten times the relief is ln 10 more, give or take the 1 m floor
+        let ten = patch_relief_ln(&bumps(400.0), size).unwrap();
+        assert!((ten - flat - 10f32.ln()).abs() < 0.05, "{}", ten - flat);
+        assert_eq!(patch_relief_ln(&vec![5.0; size * size], size), Some(0.0), "a plane has none");
+        // too few points, or all on one line
+        assert_eq!(plane_relief_ln((0..10).map(|i| (i as f32, (i % 3) as f32, i as f32))), None);
+        assert_eq!(plane_relief_ln((0..40).map(|i| (i as f32, 2.0 * i as f32, (i * i) as f32))), None);
+    }
 
     #[test]
     fn overlap_cost_ignores_constant_offsets() {

@@ -12,7 +12,7 @@
 //! exemplar leaves fewer than 8, the 8 centres farthest from a feature are kept
 //! instead, so every source still contributes.
 
-use ridgeline_terrain::costs::noise_variances;
+use ridgeline_terrain::costs::{noise_variances, patch_relief_ln};
 use ridgeline_terrain::feature_extraction::{FeatureGraph, PerKind};
 use ridgeline_terrain::grid::{distance_transform, Grid};
 use ridgeline_terrain::patch_geometry::{exits, extract_patch, Variant};
@@ -91,6 +91,8 @@ pub struct FeaturelessPatch {
     pub y: u32,
     pub pixels: Vec<f32>,
     pub noise: [f32; ridgeline_terrain::costs::NOISE_LEVELS],
+    /// Its relief, `costs::patch_relief_ln` (hole filling's relief term).
+    pub relief: f32,
 }
 
 /// Extracts the featureless pool of an exemplar.
@@ -145,7 +147,8 @@ pub fn featureless_patches(h: &Grid<f32>, graphs: &PerKind<FeatureGraph>, patch:
                 return None;
             }
             let noise = noise_variances(&pixels, patch)?;
-            Some(FeaturelessPatch { x: x as u32, y: y as u32, pixels, noise })
+            let relief = patch_relief_ln(&pixels, patch)?;
+            Some(FeaturelessPatch { x: x as u32, y: y as u32, pixels, noise, relief })
         })
         .collect()
 }

@@ -6,15 +6,20 @@
 //! the winner, so it never holds the featureless pool of a large library.
 //!
 //! Cost (the same terms the coordinator used when it scored fills itself):
-//! `ALPHA_O * overlap / relief + ALPHA_N * noise − BETA_C * coherence + repetition +
-//! seed jitter`, where the overlap is the RMS height difference with its mean removed
-//! (the gradient-domain merge hides a constant offset) over the sampled known cells,
-//! summed in f64 in a fixed order (`costs::LaneSums`), so the value does not depend on the
-//! thread count or on which worker holds the shard.
+//! `ALPHA_O * overlap / relief + ALPHA_N * noise + ALPHA_R * |Δ ln relief| − BETA_C *
+//! coherence + repetition + seed jitter`, where the overlap is the RMS height
+//! difference with its mean removed (the gradient-domain merge hides a constant
+//! offset) over the sampled known cells, summed in f64 in a fixed order
+//! (`costs::LaneSums`), so the value does not depend on the thread count or on which
+//! worker holds the shard; the relief term compares the candidate's relief about its
+//! plane with that of the sampled known cells (`costs::ALPHA_R`: without it the
+//! overlap favours the library's smoothest sources).
 
 use crate::exemplar_store::Source;
 use rayon::prelude::*;
-use ridgeline_terrain::costs::{jitter, noise_cost, repeats, LaneSums, ALPHA_N, ALPHA_O, BETA_C, REPEAT_PENALTY, SEED_JITTER};
+use ridgeline_terrain::costs::{
+    jitter, noise_cost, plane_relief_ln, repeats, LaneSums, ALPHA_N, ALPHA_O, ALPHA_R, BETA_C, REPEAT_PENALTY, SEED_JITTER,
+};
 use ridgeline_terrain::shard::{FillBestSet, FillCandidate, FillQuery};
 
 // the kernel spells out the three levels
@@ -23,18 +28,34 @@ const _: () = assert!(ridgeline_terrain::costs::NOISE_LEVELS == 3);
 /// Width of the GPU filter window above a target's k-th smallest filter cost.
 pub const DELTA: f32 = 2e-3;
 
-/// A target's samples laid out for scoring: the known values, and per variant the
-/// candidate-pixel index of every sample (one gather per sample instead of two).
+/// A target's samples laid out for scoring: the known values, per variant the
+/// candidate-pixel index of every sample (one gather per sample instead of two), and
+/// the known cells' relief ([`target_relief`]).
 pub struct Prepared {
     pub values: Vec<f32>,
     pub mapped: Vec<Vec<u32>>,
+    pub relief: Option<f32>,
 }
 
 pub fn prepare(maps: &[Vec<u32>], q: &FillQuery) -> Prepared {
     Prepared {
         values: q.samples.iter().map(|s| s.1).collect(),
         mapped: maps.iter().map(|map| q.samples.iter().map(|&(i, _)| map[i as usize]).collect()).collect(),
+        relief: target_relief(q, maps.first().map_or(0, |m| m.len())),
     }
+}
+
+/// The relief of a target's sampled known cells (`costs::plane_relief_ln`) in a patch
+/// of `cells` cells; `None` where too few are known to tell.
+pub fn target_relief(q: &FillQuery, cells: usize) -> Option<f32> {
+    let p = (cells as f64).sqrt().round().max(1.0) as u32;
+    plane_relief_ln(q.samples.iter().map(move |&(i, v)| ((i % p) as f32, (i / p) as f32, v)))
+}
+
+/// The relief term of a candidate of relief `cand` against the target's.
+#[inline]
+pub fn relief_cost(target: Option<f32>, cand: f32) -> f32 {
+    target.map_or(0.0, |t| ALPHA_R * (t - cand).abs())
 }
 
 /// The coherence share of `source` in the target window.
@@ -71,7 +92,9 @@ pub fn exact_cost(q: &FillQuery, prep: &Prepared, s: &Source, ci: usize, vi: usi
     let (sum, sum2) = moments(&c.pixels, &prep.mapped[vi], &prep.values);
     let n = q.samples.len().max(1) as f64;
     let co = ((sum2 / n - (sum / n) * (sum / n)).max(0.0)).sqrt() as f32 / q.relief;
-    ALPHA_O * co + ALPHA_N * t.noise - BETA_C * t.coherence + t.repeat + seed_jitter(seed, s.id, c.x, c.y, vi)
+    ALPHA_O * co + ALPHA_N * t.noise + relief_cost(prep.relief, c.relief) - BETA_C * t.coherence
+        + t.repeat
+        + seed_jitter(seed, s.id, c.x, c.y, vi)
 }
 
 /// Twin of the shader's `candidate_cost` (f32; the filter), given the seed's jitter.
@@ -102,7 +125,7 @@ pub fn approx_cost(q: &FillQuery, prep: &Prepared, s: &Source, ci: usize, vi: us
         None => 0.0,
     };
     let rep = if repeats(patch, &q.avoid, s.id, c.x, c.y) { REPEAT_PENALTY } else { 0.0 };
-    ALPHA_O * co + ALPHA_N * cn - BETA_C * coherence(q, s.id) + rep + jit
+    ALPHA_O * co + ALPHA_N * cn + relief_cost(prep.relief, c.relief) - BETA_C * coherence(q, s.id) + rep + jit
 }
 
 /// A scored candidate-variant: (cost, source id, y, x, variant, source index, candidate index).
@@ -207,12 +230,53 @@ mod tests {
                     x: 100 + i as u32 * 64,
                     y: 100,
                     noise: noise_variances(&pixels, p).unwrap(),
+                    relief: ridgeline_terrain::costs::patch_relief_ln(&pixels, p).unwrap(),
                     pixels,
                 })
                 .collect(),
             min_range: 1.0,
             cache_hit: false,
             stats: Default::default(),
+        }
+    }
+
+    #[test]
+    fn on_rough_ground_a_rough_candidate_beats_a_flat_one() {
+        // the known half is rough ground no candidate matches; without the relief term
+        // the flat candidate's overlap (the ground's own deviation) beats the rough
+        // one's (about √2 times it)
+        let p = 16;
+        let maps = variant_maps(p);
+        let hash = |k: usize, s: u64| ridgeline_terrain::costs::jitter(s, &[k as u64]) * 200.0 - 100.0;
+        let rough = |s: u64| -> Vec<f32> { (0..p * p).map(|k| 1000.0 + hash(k, s)).collect() };
+        let flat: Vec<f32> = (0..p * p).map(|k| 1000.0 + (k % p) as f32 * 2.0).collect();
+        let sources = vec![source(0, vec![flat], p), source(1, vec![rough(8)], p)];
+        let ground = rough(3);
+        let samples: Vec<(u32, f32)> = (0..p * p).filter(|k| k % p < p / 2).map(|k| (k as u32, ground[k])).collect();
+        let q = FillQuery { id: 1, samples, relief: 58.0, noise: None, coherence: Vec::new(), avoid: Vec::new() };
+        let prep = prepare(&maps, &q);
+        let t = prep.relief.expect("half a window known");
+        assert!((t - 58f32.ln()).abs() < 0.2, "the ground's relief, about 58 m: {}", t.exp());
+        let costs: Vec<f32> = sources.iter().map(|s| exact_cost(&q, &prep, s, 0, 0, 0, &terms(&q, s, 0, p))).collect();
+        let relief_terms: Vec<f32> = sources.iter().map(|s| relief_cost(prep.relief, s.featureless[0].relief)).collect();
+        assert!(costs[0] - relief_terms[0] < costs[1] - relief_terms[1], "the overlap alone prefers the flat one");
+        assert!(costs[1] < costs[0], "with the relief term the rough one wins: {costs:?}");
+        assert_eq!(best_fill_set(&sources, &maps, &q, 0, 1, p).entries[0].source, 1);
+    }
+
+    #[test]
+    fn the_kernel_spells_the_cost_weights_as_the_twin_does() {
+        use ridgeline_terrain::costs::REPEAT_PENALTY;
+        let wgsl = include_str!("../../shaders/fill.wgsl");
+        for (name, v) in [
+            ("ALPHA_O", ALPHA_O),
+            ("ALPHA_N", ALPHA_N),
+            ("BETA_C", BETA_C),
+            ("ALPHA_R", ALPHA_R),
+            ("REPEAT_PENALTY", REPEAT_PENALTY),
+        ] {
+            let line = format!("const {name}: f32 = {v:?};");
+            assert!(wgsl.contains(&line), "fill.wgsl lacks `{line}`");
         }
     }
 

@@ -165,13 +165,18 @@ fn pool_source(id: u32, n: usize, rng: &mut Lcg) -> Source {
     let featureless = (0..n)
         .map(|i| {
             let (a, b, lvl) = (rng.next() * 0.5, rng.next() * 0.5, 300.0 + 3000.0 * rng.next());
+            // reliefs spread over a factor of 15, so the relief term ranks
+            let amp = 0.2 + 2.8 * rng.next();
             let pixels: Vec<f32> = (0..PATCH * PATCH)
-                .map(|k| lvl + 80.0 * ((k % PATCH) as f32 * a).sin() + 50.0 * ((k / PATCH) as f32 * b).cos() + 5.0 * rng.next())
+                .map(|k| {
+                    lvl + amp * (80.0 * ((k % PATCH) as f32 * a).sin() + 50.0 * ((k / PATCH) as f32 * b).cos()) + 5.0 * rng.next()
+                })
                 .collect();
             FeaturelessPatch {
                 x: 20 + 7 * i as u32,
                 y: 40 + (i as u32 % 5) * 9,
                 noise: noise_variances(&pixels, PATCH).unwrap(),
+                relief: ridgeline_terrain::costs::patch_relief_ln(&pixels, PATCH).unwrap(),
                 pixels,
             }
         })

@@ -96,7 +96,7 @@ impl Resident {
         for &(si, ci) in &index {
             let (s, c) = (&sources[si], &sources[si].featureless[ci]);
             pixels.extend_from_slice(&c.pixels);
-            cands.push(GpuCand { source: s.id, x: c.x, y: c.y, _pad: 0, noise: [c.noise[0], c.noise[1], c.noise[2], 0.0] });
+            cands.push(GpuCand { source: s.id, x: c.x, y: c.y, _pad: 0, noise: [c.noise[0], c.noise[1], c.noise[2], c.relief] });
         }
         ctx.checked(|| {
             Ok(Resident {
@@ -145,12 +145,13 @@ fn batch_data(maps: &[Vec<u32>], targets: &[FillQuery], per_target: usize) -> Ba
     let mut d = BatchData { targets: Vec::new(), idx: Vec::new(), values: Vec::new(), coherence: Vec::new(), avoid: Vec::new() };
     for (t, q) in targets.iter().enumerate() {
         let noise = q.noise.unwrap_or_default();
+        let relief = fill_scoring::target_relief(q, maps.first().map_or(0, |m| m.len()));
         d.targets.push(GpuTarget {
             sample_start: d.values.len() as u32,
             sample_count: q.samples.len() as u32,
             relief: q.relief,
-            has_noise: q.noise.is_some() as u32,
-            noise: [noise[0], noise[1], noise[2], 0.0],
+            has_noise: q.noise.is_some() as u32 | (relief.is_some() as u32) << 1,
+            noise: [noise[0], noise[1], noise[2], relief.unwrap_or(0.0)],
             coh_start: d.coherence.len() as u32,
             coh_count: q.coherence.len() as u32,
             avoid_start: d.avoid.len() as u32,
