@@ -381,13 +381,15 @@ fn nearest_scale(held: &[f32], cw: usize, ch: usize, fallback: f32) -> Vec<f32> 
     out.iter().map(|&s| if s > 0.0 { s } else { fallback }).collect()
 }
 
-/// The width of the widest stroke of `kind` within `radius` cells of each of `cells`
-/// (0 where none is): the scale of the landform a cell of a stroke belongs to, its
-/// tapering ends and a raster's skeleton spurs into an end cap included.
-pub fn widest_stroke_near(sk: &SketchFeatures, kind: FeatureKind, cells: &[(usize, usize)], radius: f32) -> Vec<f32> {
+/// The widest pen of the stroke of `kind` nearest each of `cells` (0 where none is
+/// near), over the whole stroke: the scale of the landform the stroke draws, its
+/// tapering ends included (a raster's chains that taper into a wide stroke's end cap
+/// carry the cap's width at their root).
+pub fn nearest_stroke_width(sk: &SketchFeatures, kind: FeatureKind, cells: &[(usize, usize)]) -> Vec<f32> {
     let strokes: Vec<&Stroke> = sk.strokes.iter().filter(|s| s.pen == crate::stages::sketch::Pen::Draw(kind)).collect();
-    let index = SegmentIndex::new(&strokes, radius);
-    cells.iter().map(|&(x, y)| index.widest_within(x as f32 + 0.5, y as f32 + 0.5, radius)).collect()
+    let widest: Vec<f32> = strokes.iter().map(|s| (0..s.points.len()).map(|k| s.width_at(k)).fold(0f32, f32::max)).collect();
+    let index = SegmentIndex::new(&strokes, SegmentIndex::NEAR);
+    cells.iter().map(|&(x, y)| index.nearest_stroke(x as f32 + 0.5, y as f32 + 0.5).map_or(0.0, |si| widest[si])).collect()
 }
 
 /// The segments of some strokes, bucketed, to find the stroke nearest a cell.
@@ -435,25 +437,9 @@ impl<'a> SegmentIndex<'a> {
         SegmentIndex { strokes, bucket: Self::BUCKET, lists }
     }
 
-    /// The widest pen of the segments within `radius` of (x, y) (0 if none), the
-    /// index built with a margin of at least `radius`.
-    fn widest_within(&self, x: f32, y: f32, radius: f32) -> f32 {
-        let key = ((x.max(0.0) / self.bucket) as usize, (y.max(0.0) / self.bucket) as usize);
-        let mut widest = 0f32;
-        for &(si, k) in self.lists.get(&key).into_iter().flatten() {
-            let s = self.strokes[si];
-            let k1 = (k + 1).min(s.points.len() - 1);
-            let (a, b) = (s.points[k], s.points[k1]);
-            if segment_distance2(a, b, x, y).0 <= radius * radius {
-                widest = widest.max(s.width_at(k)).max(s.width_at(k1));
-            }
-        }
-        widest
-    }
-
-    /// The width and elevation (if it carries one) of the stroke nearest (x, y), at
-    /// the point of it nearest.
-    fn nearest(&self, x: f32, y: f32) -> Option<(f32, Option<f32>)> {
+    /// The stroke, segment and place along it (0..1) nearest (x, y), among those
+    /// bucketed there.
+    fn nearest_point(&self, x: f32, y: f32) -> Option<(usize, usize, f32)> {
         let key = ((x.max(0.0) / self.bucket) as usize, (y.max(0.0) / self.bucket) as usize);
         let mut best: Option<(f32, (usize, usize, f32))> = None;
         for &(si, k) in self.lists.get(&key)? {
@@ -464,7 +450,18 @@ impl<'a> SegmentIndex<'a> {
                 best = Some((d2, (si, k, t)));
             }
         }
-        let (_, (si, k, t)) = best?;
+        best.map(|b| b.1)
+    }
+
+    /// The stroke nearest (x, y), among those bucketed there.
+    fn nearest_stroke(&self, x: f32, y: f32) -> Option<usize> {
+        self.nearest_point(x, y).map(|b| b.0)
+    }
+
+    /// The width and elevation (if it carries one) of the stroke nearest (x, y), at
+    /// the point of it nearest.
+    fn nearest(&self, x: f32, y: f32) -> Option<(f32, Option<f32>)> {
+        let (si, k, t) = self.nearest_point(x, y)?;
         let s = self.strokes[si];
         let k1 = (k + 1).min(s.points.len() - 1);
         let width = s.width_at(k) + t * (s.width_at(k1) - s.width_at(k));
