@@ -234,7 +234,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
     // an edit places only the strokes in the area it remakes
     let ups = run.run(Stage::UserPatches, |_| {
         let all = user_patches(&sk, p);
-        // on a coarse level, a stroke whose landform is wider than a patch is that
+        // on a coarse level, a stroke whose landform is wider than two patches is that
         // level's alone (`coarse_level::output_level_patches`)
         let all = match &form_sources {
             Some(_) => coarse_level::output_level_patches(&all, &sk, p),

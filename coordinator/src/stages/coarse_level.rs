@@ -44,10 +44,10 @@
 //! 0.87–1.07).
 //!
 //! **Strokes at the output level.** A stroke's width sets its landform's scale
-//! (`large_scale::SCALE_PER_WIDTH` times the width): where that is wider than a
-//! patch, the coarse level's patches along the stroke make the landform, and the
-//! output level only fills it with its sources' detail, like any other cell
-//! ([`output_level_patches`]). Placed again at the output level, a 64-cell ridge or
+//! (`large_scale::SCALE_PER_WIDTH` times the width): where that is wider than
+//! [`MAX_OUTPUT_LANDFORM_PATCHES`] patches, the coarse level's patches along the
+//! stroke make the landform, and the output level only fills it with its sources'
+//! detail, like any other cell ([`output_level_patches`]). Placed again at the output level, a 64-cell ridge or
 //! valley patch kept its own crest or floor below the band (σ = `DETAIL_BAND` coarse
 //! cells) with the flanks that frame it: a second, narrower landform along the line
 //! of the first, the "thin rail" of a ridge and, along a valley, a ditch between two
@@ -95,9 +95,8 @@ use crate::canvas::Canvas;
 use crate::stages::base_surface::{BaseSurface, CoarseBand};
 use crate::stages::drainage::{breach_under_sketch, Hybrid};
 use crate::stages::large_scale::{self, LargeScale, LibraryForm};
-use crate::stages::sketch::{self, SketchFeatures, SketchInput, StrokeSketch};
+use crate::stages::sketch::{self, Buckets, SketchFeatures, SketchInput, StrokeSketch};
 use crate::stages::user_patches::{self, UserPatch};
-use ridgeline_terrain::feature_extraction::FeatureGraph;
 use ridgeline_terrain::FeatureKind;
 
 /// The coarse level's cells are this many output cells a side.
@@ -184,44 +183,22 @@ pub fn output_level_patches(ups: &[UserPatch], sk: &SketchFeatures, patch: usize
     for kind in FeatureKind::ALL {
         let of_kind: Vec<usize> = (0..ups.len()).filter(|&i| ups[i].kind == kind).collect();
         let cells: Vec<(usize, usize)> = of_kind.iter().map(|&i| (ups[i].cx, ups[i].cy)).collect();
-        let other =
-            LinePixels::of(sk.graph(if kind == FeatureKind::Ridge { FeatureKind::Valley } else { FeatureKind::Ridge }), reach);
+        let g = sk.graph(if kind == FeatureKind::Ridge { FeatureKind::Valley } else { FeatureKind::Ridge });
+        let other: Vec<(usize, usize)> = g.pixels().map(|p| g.xy(p)).collect();
+        let near = Buckets::new(sk.width, sk.height, reach as usize, other.iter().copied());
+        let other_within = |x: usize, y: usize| {
+            near.near(x, y, reach as usize).any(|j| {
+                let (px, py) = other[j as usize];
+                (px as f32 - x as f32).hypot(py as f32 - y as f32) <= reach
+            })
+        };
         for ((&i, w), &(x, y)) in of_kind.iter().zip(large_scale::nearest_stroke_width(sk, kind, &cells)).zip(&cells) {
-            narrow[i] = large_scale::SCALE_PER_WIDTH * w <= reach * 2.0 || other.any_within(x, y, reach);
+            narrow[i] = large_scale::SCALE_PER_WIDTH * w <= reach * 2.0 || other_within(x, y);
         }
     }
     let kept = user_patches::kept(ups, &narrow);
     tracing::info!(kept = kept.len(), of = ups.len(), "output-level user patches on the coarse level's terrain");
     kept
-}
-
-/// A feature graph's line cells, bucketed by squares of a given side.
-struct LinePixels {
-    side: usize,
-    buckets: std::collections::HashMap<(usize, usize), Vec<(usize, usize)>>,
-}
-
-impl LinePixels {
-    fn of(g: &FeatureGraph, side: f32) -> LinePixels {
-        let side = (side.ceil() as usize).max(1);
-        let mut buckets: std::collections::HashMap<(usize, usize), Vec<(usize, usize)>> = Default::default();
-        for (x, y) in g.pixels().map(|p| g.xy(p)) {
-            buckets.entry((x / side, y / side)).or_default().push((x, y));
-        }
-        LinePixels { side, buckets }
-    }
-
-    /// Whether a line cell lies within `r` (at most the bucket side) of (x, y).
-    fn any_within(&self, x: usize, y: usize, r: f32) -> bool {
-        let (bx, by) = (x / self.side, y / self.side);
-        (by.saturating_sub(1)..=by + 1).any(|yy| {
-            (bx.saturating_sub(1)..=bx + 1).any(|xx| {
-                self.buckets
-                    .get(&(xx, yy))
-                    .is_some_and(|v| v.iter().any(|&(px, py)| (px as f32 - x as f32).hypot(py as f32 - y as f32) <= r))
-            })
-        })
-    }
 }
 
 /// Which exemplar made the coarse level's landform under each output cell: the

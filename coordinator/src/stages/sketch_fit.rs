@@ -44,7 +44,7 @@
 //! were. Every step maps over cells and combines by maximum, so the
 //! result does not depend on the thread count.
 
-use crate::stages::sketch::{cross_section, CrossSection, SketchFeatures};
+use crate::stages::sketch::{cross_section, Buckets, CrossSection, SketchFeatures};
 use rayon::prelude::*;
 use ridgeline_terrain::feature_extraction::{FeatureGraph, FeatureKind, PerKind};
 use ridgeline_terrain::grid::{distance_transform_by, Heightfield};
@@ -133,33 +133,6 @@ fn deficit(h: &Heightfield, cs: &CrossSection, sign: f32, slope: f32) -> f32 {
         }
     }
     need
-}
-
-/// Indices of `items` bucketed by a square grid of `cell` cells.
-struct Buckets {
-    cell: usize,
-    cols: usize,
-    rows: usize,
-    lists: Vec<Vec<u32>>,
-}
-
-impl Buckets {
-    fn new(width: usize, height: usize, cell: usize, at: impl Iterator<Item = (usize, usize)>) -> Buckets {
-        let cell = cell.max(1);
-        let (cols, rows) = (width.div_ceil(cell), height.div_ceil(cell));
-        let mut lists = vec![Vec::new(); cols * rows];
-        for (i, (x, y)) in at.enumerate() {
-            lists[(y / cell) * cols + x / cell].push(i as u32);
-        }
-        Buckets { cell, cols, rows, lists }
-    }
-
-    /// Every index in the buckets that a square of `radius` around (x, y) touches.
-    fn near(&self, x: usize, y: usize, radius: usize) -> impl Iterator<Item = u32> + '_ {
-        let (bx0, by0) = (x.saturating_sub(radius) / self.cell, y.saturating_sub(radius) / self.cell);
-        let (bx1, by1) = (((x + radius) / self.cell).min(self.cols - 1), ((y + radius) / self.cell).min(self.rows - 1));
-        (by0..=by1).flat_map(move |by| (bx0..=bx1).flat_map(move |bx| self.lists[by * self.cols + bx].iter().copied()))
-    }
 }
 
 /// Rows per band when stamps are drawn and applied.

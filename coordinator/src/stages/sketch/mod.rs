@@ -19,6 +19,7 @@
 //! about 7 bytes per cell besides the sketch (a distance field, the candidate mask,
 //! the graphs).
 
+pub mod buckets;
 pub mod centre_lines;
 pub mod cross_section;
 pub mod features;
@@ -26,6 +27,7 @@ pub mod guide;
 pub mod sides;
 pub mod strokes;
 
+pub use buckets::Buckets;
 pub use centre_lines::{centre_lines, is_stroke, raster_value, SKETCH_PPA};
 pub use cross_section::{cross_section, CrossSection};
 pub use features::SketchFeatures;
