@@ -4,8 +4,8 @@
 //! high a sketched valley's centre-line cell may be filled, so a filled bottom never
 //! lifts the valley's floor over its sides.
 //!
-//! The floors alone held only the path: the gully's walls (at least [`GULLY_RADIUS`]
-//! wide) and the filled bottoms still took a traced sketch's valleys apart, 0.989 of
+//! The floors alone held only the path: the gully's walls (at least
+//! [`OUTPUT_GULLY_RADIUS`] wide) and the filled bottoms still took a traced sketch's valleys apart, 0.989 of
 //! talaska-1024's valley cells fitting before the conditioning and 0.972 after it.
 //! With the ceilings and a first search whose gully's walls spare the held sides
 //! (`Floors::spare`, on a near way out only, and checked only on the cells
@@ -24,6 +24,7 @@
 //! valley samples fit after it (0.994 before it), traced-alaska 0.980 to 0.984, for
 //! 3% more cells lowered on traced-rockies and the same on traced-alaska.
 
+use super::carve::OUTPUT_GULLY_RADIUS;
 use super::topology::Topology;
 use crate::stages::sketch::{cross_section, SketchFeatures};
 use ridgeline_terrain::feature_extraction::FeatureGraph;
@@ -124,7 +125,7 @@ const SPLIT: f32 = 0.5;
 /// The floors one breach keeps to: all of them (`held`), or only the crests (a
 /// depression with no way out above the valleys' floors). Held, the search first
 /// keeps the narrowest gully's walls off them too (`spare`: no path cell is cut so
-/// deep that a bump of [`GULLY_RADIUS`] would take a held cell
+/// deep that a bump of [`OUTPUT_GULLY_RADIUS`] would take a held cell
 /// beside it below its floor), then, with no such way out, only the path itself.
 #[derive(Clone, Copy)]
 pub(super) struct Floors<'a> {
@@ -150,23 +151,8 @@ impl Floors<'_> {
     }
 }
 
-/// The narrowest half-width of a breach gully beside its path, cells. Most breaches
-/// drop less than this many times the wall's slope, so this half-width sets their
-/// width: at 3, the ring 3 cells out still came down by a fifth of the drop. At 2
-/// against 3 (seed 3; the 4096² pairs of `coarse_level` with their seeds), the cells
-/// lowered fell 11–20% on every pair (sparse-1024 13.8 → 11.0%, mixed-1024 14.9 →
-/// 11.9%, traced-alaska-1024 19.3 → 16.2%, lambda-valleys-1024 17.5 → 14.6%,
-/// small-range-512 13.8 → 11.2%, traced-rockies-1024 19.0 → 16.0%, traced-norway-1024
-/// 18.5 → 16.5%, massif-4096 12.7 → 10.6%, rockies ×4 15.0 → 12.7%, mixed ×4 14.6 →
-/// 12.1%) and those lowered by more than 10 m 5–13%; valley adherence rose on the
-/// three traced sketches (0.982–0.983 → 0.988–0.990) and fell on mixed ×4 (0.997 →
-/// 0.994), the landform distance moved by at most 0.002, and the roughness ratio
-/// rose 0.02–0.21 (traced-alaska 1.21 → 1.42, traced-norway 0.62 → 0.72; inside the
-/// real DEMs' spread, 0.43–5.07).
-pub const GULLY_RADIUS: usize = 2;
-
-/// The cells within the narrowest gully's reach (a disc of [`GULLY_RADIUS`] + 1,
-/// exclusive) of a cell with a finite floor, one bit each.
+/// The cells within the narrowest gully's reach (a disc of [`OUTPUT_GULLY_RADIUS`]
+/// + 1, exclusive) of a cell with a finite floor, one bit each.
 pub(super) fn near_held(floor: &[f32], topo: Topology) -> Vec<u64> {
     let mut bits = vec![0u64; floor.len().div_ceil(64)];
     for (c, f) in floor.iter().enumerate() {
@@ -184,13 +170,13 @@ pub(super) fn near_held(floor: &[f32], topo: Topology) -> Vec<u64> {
 }
 
 /// The deepest a path cell at `at` may be cut while the narrowest gully's walls
-/// ([`GULLY_RADIUS`]) leave every held cell beside it, and itself, above its floor
-/// (infinite with none near, or with floors not held).
+/// ([`OUTPUT_GULLY_RADIUS`]) leave every held cell beside it, and itself, above its
+/// floor (infinite with none near, or with floors not held).
 pub(super) fn max_held_drop(h: &Heightfield, topo: Topology, floor: Floors, at: (i64, i64)) -> f32 {
     if !floor.held {
         return f32::INFINITY;
     }
-    let span = ((GULLY_RADIUS + 1) * (GULLY_RADIUS + 1)) as f32;
+    let span = ((OUTPUT_GULLY_RADIUS + 1) * (OUTPUT_GULLY_RADIUS + 1)) as f32;
     let mut most = f32::INFINITY;
     for (dx, dy, d2) in wall_disc() {
         let Some(j) = topo.at(at.0 + dx, at.1 + dy) else { continue };
@@ -203,9 +189,9 @@ pub(super) fn max_held_drop(h: &Heightfield, topo: Topology, floor: Floors, at: 
     most
 }
 
-/// The offsets (dx, dy, dx² + dy²) a gully of [`GULLY_RADIUS`] reaches from its path
+/// The offsets (dx, dy, dx² + dy²) a gully of [`OUTPUT_GULLY_RADIUS`] reaches from its path
 /// cell: its bump `(1 − d²/(R+1)²)²` is above zero within R + 1.
 fn wall_disc() -> impl Iterator<Item = (i64, i64, i64)> {
-    let r = GULLY_RADIUS as i64;
+    let r = OUTPUT_GULLY_RADIUS as i64;
     (-r..=r).flat_map(move |dy| (-r..=r).map(move |dx| (dx, dy, dx * dx + dy * dy))).filter(move |e| e.2 < (r + 1) * (r + 1))
 }

@@ -97,11 +97,11 @@ mod topology;
 
 use crate::stages::sketch::SketchFeatures;
 use carve::{carve, gully, wall_slope};
-pub use carve::{BIG_CUT_M, MAX_GULLY_RADIUS, WALL_PER_MEDIAN_SLOPE};
+pub use carve::{BIG_CUT_M, COARSE_GULLY_RADIUS, MAX_GULLY_RADIUS, OUTPUT_GULLY_RADIUS, WALL_PER_MEDIAN_SLOPE};
 use fill::{fill_bottom, fill_from};
 pub use fill::{fill_cells, whole_fill_cells};
 use floors::Floors;
-pub use floors::{sketch_floors, SketchFloors, GULLY_RADIUS};
+pub use floors::{sketch_floors, SketchFloors};
 use ridgeline_terrain::grid::Heightfield;
 pub use search::MIN_DEPTH_M;
 use search::{breach_path, cells_without_way_down, has_way_down, local_depth, pits, Limits, Scratch};
@@ -153,6 +153,15 @@ impl Hybrid {
     /// sides with its gully's walls.
     fn keeps_valley_sides(self) -> bool {
         self == Hybrid::FillThenBreach
+    }
+
+    /// The narrowest half-width of a breach gully ([`OUTPUT_GULLY_RADIUS`] on the
+    /// output level, [`COARSE_GULLY_RADIUS`] on a coarse one).
+    fn gully_radius(self) -> usize {
+        match self {
+            Hybrid::FillThenBreach => OUTPUT_GULLY_RADIUS,
+            Hybrid::BreachOrFill => COARSE_GULLY_RADIUS,
+        }
     }
 }
 
@@ -316,7 +325,7 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floors: &SketchFloors, patch: 
                 (p, None) => (p, None),
             };
             let steps = path.as_ref().map_or(0, |p| p.0.len());
-            let mut cut = path.map(|(path, floor)| gully(h, topo, &path, floor, wall));
+            let mut cut = path.map(|(path, floor)| gully(h, topo, &path, floor, wall, hybrid.gully_radius()));
             // a trench (a long breach, cutting deep somewhere along it) from a small
             // filled bottom: the depression filled from its pit, other basins behind
             // its sill with it, up to 16 and 256 times as many cells and breached from
@@ -337,7 +346,7 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floors: &SketchFloors, patch: 
                         true => Some((f.volume, None)),
                         // a search that would cut more than the best so far gives up
                         false => search_below(h, f.pit, (best.0 - f.volume).max(0.0) as f32).map(|(p, floor)| {
-                            let c = gully(h, topo, &p, floor, wall);
+                            let c = gully(h, topo, &p, floor, wall, hybrid.gully_radius());
                             (f.volume + cut_volume(&c), Some(c))
                         }),
                     };

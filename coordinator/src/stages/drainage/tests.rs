@@ -47,7 +47,7 @@ fn a_dammed_valley_is_breached_through_the_dam_with_few_cells() {
     let side = (fill_cells(32) as f64).sqrt() as i64;
     for (i, (a, b)) in h.data.iter().zip(&before.data).enumerate() {
         if a < b {
-            assert!(((i % 120) as i64 - 50).abs() <= 3 + side + GULLY_RADIUS as i64, "cell {} lowered", i % 120);
+            assert!(((i % 120) as i64 - 50).abs() <= 3 + side + OUTPUT_GULLY_RADIUS as i64, "cell {} lowered", i % 120);
         }
         if a > b {
             assert!(a - b < 30.0, "cell {i} raised by {}", a - b);
@@ -252,7 +252,7 @@ fn a_breach_keeps_to_the_floors_where_it_can_and_drains_where_it_cannot() {
     assert_eq!(drainage_shares(&h, MIN_DEPTH_M).sink_share, 0.0);
     // floors a metre below the dam's surface beside the valley's floor (4 to 7
     // cells off it, where the gully's walls would cut metres): held, the gully
-    // narrower there (no narrower than GULLY_RADIUS)
+    // narrower there (no narrower than OUTPUT_GULLY_RADIUS)
     let mut floor = vec![f32::NEG_INFINITY; n];
     for x in 46..55 {
         for y in (23..27).chain(34..38) {
@@ -324,7 +324,7 @@ fn a_pit_s_own_flood_finds_its_depth() {
 #[test]
 fn a_breach_keeps_the_narrowest_gullys_walls_off_a_held_side_where_it_can() {
     // a valley side held a metre below the surface two cells off the dammed valley's
-    // floor: a gully along the floor would take its walls (even at GULLY_RADIUS)
+    // floor: a gully along the floor would take its walls (even at OUTPUT_GULLY_RADIUS)
     // 17 m down there; the breach goes round, through the dam beyond the walls' reach
     let before = dammed();
     let n = before.data.len();
