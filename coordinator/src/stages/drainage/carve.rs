@@ -10,31 +10,6 @@ use ridgeline_terrain::grid::Heightfield;
 /// A cut deeper than this (metres) is counted apart in `DrainageStats`.
 pub const BIG_CUT_M: f32 = 10.0;
 
-/// The narrowest half-width of a breach gully beside its path on the output level,
-/// cells (held sides are kept off a disc of it: `floors`). Most breaches drop less
-/// than this many times the wall's slope, so this half-width sets their width: at 3,
-/// the ring 3 cells out still came down by a fifth of the drop. At 2 against 3 (the
-/// coarse level's unchanged; seed 3, and the 4096² pairs of `coarse_level` with their
-/// seeds), the cells lowered fell 11–20% on every pair (sparse-1024 13.8 → 11.0%,
-/// mixed-1024 14.9 → 11.9%, traced-alaska-1024 19.3 → 16.2%, lambda-valleys-1024
-/// 17.5 → 14.6%, small-range-512 13.8 → 11.2%, traced-rockies-1024 19.0 → 16.0%,
-/// traced-norway-1024 18.5 → 16.5%, massif-4096 12.7 → 10.5%, rockies ×4 15.0 →
-/// 12.8%, mixed ×4 14.6 → 12.1%, sparse ×4 13.1 → 10.8%, the 8192² massif 14.7 →
-/// 12.4%) and those lowered by more than 10 m 7–13%; the sink and border shares
-/// stayed as they were on the 4096² and 8192² pairs (0.9994 of the 8192² massif
-/// draining to the border), valley adherence rose on the three traced sketches
-/// (0.982–0.983 → 0.988–0.990) and fell on none, the landform distance moved by at
-/// most 0.002, and the roughness ratio rose 0.02–0.21 (traced-alaska 1.21 → 1.42,
-/// traced-norway 0.62 → 0.72; inside the real DEMs' spread, 0.43–5.07).
-pub const OUTPUT_GULLY_RADIUS: usize = 2;
-
-/// The narrowest half-width of a breach gully on a coarse level, cells: a coarse
-/// cell is several of the output's, and its gullies are the valleys the output level
-/// drains along. At 2 there too, an 8192² massif sketch (16 shared DEMs, seed 3)
-/// drained 0.923 of its cells to the border against 0.999 (closed basins 0.30% of
-/// the cells against 0.02%).
-pub const COARSE_GULLY_RADIUS: usize = 3;
-
 /// The widest a gully's half-width grows, cells.
 pub const MAX_GULLY_RADIUS: usize = 24;
 

@@ -97,11 +97,11 @@ mod topology;
 
 use crate::stages::sketch::SketchFeatures;
 use carve::{carve, gully, wall_slope};
-pub use carve::{BIG_CUT_M, COARSE_GULLY_RADIUS, MAX_GULLY_RADIUS, OUTPUT_GULLY_RADIUS, WALL_PER_MEDIAN_SLOPE};
+pub use carve::{BIG_CUT_M, MAX_GULLY_RADIUS, WALL_PER_MEDIAN_SLOPE};
 use fill::{fill_bottom, fill_from};
 pub use fill::{fill_cells, whole_fill_cells};
 use floors::Floors;
-pub use floors::{sketch_floors, SketchFloors};
+pub use floors::{sketch_floors, SketchFloors, COARSE_GULLY_RADIUS, OUTPUT_GULLY_RADIUS};
 use ridgeline_terrain::grid::Heightfield;
 pub use search::MIN_DEPTH_M;
 use search::{breach_path, cells_without_way_down, has_way_down, local_depth, pits, Limits, Scratch};
