@@ -234,8 +234,10 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
     // an edit places only the strokes in the area it remakes
     let ups = run.run(Stage::UserPatches, |_| {
         let all = user_patches(&sk, p);
-        // on a coarse level, a stroke whose landform is wider than two patches is that
-        // level's alone (`coarse_level::output_level_patches`)
+        // where the output level lays its patches on a coarse level's terrain (the
+        // coarse level's sources are then the output's: `form_sources`), a stroke
+        // whose landform is wider than two patches is that level's alone
+        // (`coarse_level::output_level_patches`)
         let all = match &form_sources {
             Some(_) => coarse_level::output_level_patches(&all, &sk, p),
             None => all,

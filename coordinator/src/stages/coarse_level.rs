@@ -47,8 +47,9 @@
 //! (`large_scale::SCALE_PER_WIDTH` times the width): where that is wider than
 //! [`MAX_OUTPUT_LANDFORM_PATCHES`] patches, the coarse level's patches along the
 //! stroke make the landform, and the output level only fills it with its sources'
-//! detail, like any other cell ([`output_level_patches`]). Placed again at the output level, a 64-cell ridge or
-//! valley patch kept its own crest or floor below the band (σ = `DETAIL_BAND` coarse
+//! detail, like any other cell ([`output_level_patches`]). Placed again at the output
+//! level, a 64-cell ridge or valley patch kept its own crest or floor below the band
+//! (σ = `DETAIL_BAND` coarse
 //! cells) with the flanks that frame it: a second, narrower landform along the line
 //! of the first, the "thin rail" of a ridge and, along a valley, a ditch between two
 //! levees (on a 4096² massif sketch, a cross-section of the valley stroke fell 350 m

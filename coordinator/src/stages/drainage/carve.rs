@@ -83,11 +83,11 @@ pub(super) fn held_radius(h: &Heightfield, topo: Topology, floor: Floors, at: (i
 /// where it is a border cell above the line: water leaves there) by its drop `d`, and
 /// the cut at a cell is the largest `d · K(r / R)` over the path cells, `K` a smooth
 /// bump `(1 − u²)²` and `R` the half-width at which the cut's walls are no steeper
-/// than `wall` (at least `min_r`, the level's narrowest, at most [`MAX_GULLY_RADIUS`]). The cut is
-/// subtracted, so the terrain's own relief stays on the gully's floor and walls: a
-/// valley through the sill, not a trench with a smooth floor. A crest (`floor`
-/// infinite) is never lowered; near a held floor the gully narrows
-/// ([`held_radius`]).
+/// than `wall` (at least `min_r`, the level's narrowest, at most
+/// [`MAX_GULLY_RADIUS`]). The cut is subtracted, so the terrain's own relief stays on
+/// the gully's floor and walls: a valley through the sill, not a trench with a smooth
+/// floor. A crest (`floor` infinite) is never lowered; near a held floor the gully
+/// narrows ([`held_radius`]).
 pub(super) fn gully(
     h: &Heightfield,
     topo: Topology,
