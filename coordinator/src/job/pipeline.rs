@@ -74,7 +74,7 @@ use crate::stages::erosion::{erode, STEPS as EROSION_STEPS};
 use crate::stages::exemplars::{self, Backend, Fleet, LoadSettings, COARSE_LEVEL};
 use crate::stages::feature_placement::{place_features, PlacementSettings};
 use crate::stages::hole_filling::{fill_holes, FillSettings};
-use crate::stages::large_scale::{self, hold_range, LibraryForm};
+use crate::stages::large_scale::{self, hold_range, FormStats, LibraryForm};
 use crate::stages::regions;
 use crate::stages::seam_smoothing;
 use crate::stages::sketch::{self, SketchFeatures, SketchInput};
@@ -286,6 +286,11 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
         };
         let fill = FillSettings { level: OUTPUT_LEVEL, seed: set.seed, base, form: form_sources.as_ref() };
         let filled = fill_holes(&mut canvas, level_shards, &fill, cx.pool, &on_fill, cx.cancel)?;
+        // on a coarse level's terrain, the fills' levels held to it above its band
+        let held = match (&form, &form_sources) {
+            (Some(f), Some(_)) => cx.install(|| large_scale::hold_to_coarse(&mut canvas.heights, &f.target)),
+            _ => 0.0,
+        };
         // a detail level's generator: its detail, once every cell is filled, scaled by
         // how rough the coarse terrain is (`detail_level::modulate`); detail from fine
         // sources is their own
@@ -295,9 +300,9 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
             }
             _ => None,
         };
-        Ok((filled, modulation))
+        Ok((filled, modulation, held))
     })?;
-    let (filling, modulation) = filling;
+    let (filling, modulation, held_to_coarse_m) = filling;
     if let Some((_, stats)) = fine.as_mut() {
         stats.modulation = modulation;
     }
@@ -375,7 +380,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
             Ok(cx.install(|| {
                 let drainage = breach_under_sketch(&mut canvas.heights, &sk, p, false, Hybrid::FillThenBreach);
                 let range_change_m = hold_range(&mut canvas.heights, form.range, form.stretch);
-                Conditioning { drainage, range: form.range, range_change_m, form: form.stats }
+                Conditioning { drainage, range: form.range, range_change_m, form: FormStats { held_to_coarse_m, ..form.stats } }
             }))
         })?),
         None => None,

@@ -273,6 +273,42 @@ impl BaseSurface {
         BaseSurface { detail_sigma: Some(sigma * f as f32), ..BaseSurface::from_grid(f, cw, ch, values) }
     }
 
+    /// On a coarser level's terrain, the σ (output cells) of the band between the
+    /// levels: patches laid on it keep their detail below it.
+    pub fn detail_sigma(&self) -> Option<f32> {
+        self.detail_sigma
+    }
+
+    /// The grid's size in coarse cells (columns, rows).
+    pub fn grid_size(&self) -> (usize, usize) {
+        (self.cw, self.ch)
+    }
+
+    /// The surface at the centres of its coarse cells, row by row (the B-spline's
+    /// (1, 4, 1) / 6 taps along each axis, clamped at the grid's edges).
+    pub fn at_cell_centres(&self) -> Vec<f32> {
+        let (w, h) = (self.cw, self.ch);
+        let taps = |g: &[f32], i: usize, n: usize, step: usize, at: usize| {
+            let (a, b) = (i.saturating_sub(1), (i + 1).min(n - 1));
+            (g[at + a * step] + 4.0 * g[at + i * step] + g[at + b * step]) / 6.0
+        };
+        let mut rows = vec![0f32; w * h];
+        for y in 0..h {
+            for x in 0..w {
+                rows[y * w + x] = taps(&self.values, x, w, 1, y * w);
+            }
+        }
+        (0..w * h).map(|k| taps(&rows, k / w, h, w, k % w)).collect()
+    }
+
+    /// Adds `delta` (one value per coarse cell) to the surface at its cells' centres,
+    /// interpolated between them by the B-spline ([`bspline_coefficients`]).
+    pub fn add_at_cell_centres(&mut self, delta: &[f32]) {
+        assert_eq!(delta.len(), self.values.len(), "one value per coarse cell");
+        let c = bspline_coefficients(delta, self.cw, self.ch);
+        self.values.iter_mut().zip(c).for_each(|(v, d)| *v += d);
+    }
+
     /// Candidate `pixels` as merged on this surface, whose values over the patch are
     /// `under` (from [`BaseSurface::patch`]): on a smooth target, the candidate's
     /// best-fit plane replaced by it ([`on_base`]); on a coarser level's terrain, the
@@ -445,6 +481,37 @@ pub(crate) fn gaussian_blur(src: &[f32], w: usize, h: usize, sigma: f32) -> Vec<
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_change_added_at_the_cells_centres_is_found_there() {
+        let (w, h) = (12, 9);
+        let values: Vec<f32> = (0..w * h).map(|i| 100.0 * ((i % w) as f32 / 2.0).sin() + (i / w) as f32 * 15.0).collect();
+        let mut s = BaseSurface::from_grid(4, w, h, values.clone());
+        let before = s.at_cell_centres();
+        // the centre of coarse cell (x, y) is output cell (4x + 1.5, 4y + 1.5): between
+        // the four output cells about it
+        let at = |s: &BaseSurface, x: usize, y: usize| {
+            let (gx, gy) = (4 * x + 1, 4 * y + 1);
+            (s.at(gx, gy) + s.at(gx + 1, gy) + s.at(gx, gy + 1) + s.at(gx + 1, gy + 1)) / 4.0
+        };
+        for (x, y) in [(3, 3), (7, 4), (9, 6)] {
+            assert!((before[y * w + x] - at(&s, x, y)).abs() < 2.0, "({x}, {y})");
+        }
+        let delta: Vec<f32> = (0..w * h).map(|i| if i == 4 * w + 6 { -120.0 } else { 0.0 }).collect();
+        s.add_at_cell_centres(&delta);
+        let after = s.at_cell_centres();
+        for y in 1..h - 1 {
+            for x in 1..w - 1 {
+                let k = y * w + x;
+                assert!(
+                    (after[k] - before[k] - delta[k]).abs() < 0.5,
+                    "({x}, {y}): {} against {}",
+                    after[k] - before[k],
+                    delta[k]
+                );
+            }
+        }
+    }
 
     fn canvas_with(w: usize, h: usize, patch: usize, f: impl Fn(usize, usize) -> f32) -> Canvas {
         let mut c = Canvas::new(w, h, patch);

@@ -46,7 +46,7 @@ use ridgeline_terrain::{FeatureKind, PerKind};
 use std::collections::VecDeque;
 
 mod hold;
-pub use hold::{anchor, hold_range, ANCHOR_SIGMA_PATCHES};
+pub use hold::{anchor, anchor_above, hold_range, hold_to_coarse, ANCHOR_SIGMA_PATCHES, COARSE_HOLD_BANDS};
 
 /// A stroke of width `w` shapes a landform of about this many times `w` across.
 pub const SCALE_PER_WIDTH: f32 = 12.0;
@@ -123,6 +123,10 @@ pub struct FormStats {
     /// On a coarse level, the largest change that held its terrain to the target above
     /// a few patches ([`anchor`]), metres; 0 on a single level.
     pub held_to_target_m: f32,
+    /// On a coarse level's terrain, the largest change that held the output level to
+    /// it above twice the band between the levels ([`hold_to_coarse`]), metres; 0
+    /// elsewhere.
+    pub held_to_coarse_m: f32,
 }
 
 /// What a stroke asks of one centre-line cell: the landform scale and, if it carries
