@@ -46,7 +46,7 @@ use ridgeline_terrain::{FeatureKind, PerKind};
 use std::collections::VecDeque;
 
 mod hold;
-pub use hold::{anchor, anchor_above, hold_range, hold_to_coarse, ANCHOR_SIGMA_PATCHES, COARSE_HOLD_BANDS};
+pub use hold::{anchor, hold_range, hold_to_coarse, ANCHOR_SIGMA_PATCHES, COARSE_HOLD_BANDS};
 
 /// A stroke of width `w` shapes a landform of about this many times `w` across.
 pub const SCALE_PER_WIDTH: f32 = 12.0;
