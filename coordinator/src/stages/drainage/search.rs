@@ -153,10 +153,38 @@ pub(super) struct Limits {
     pub(super) max_cost: f32,
 }
 
+/// Why a [`breach_path`] search found no way out: which of its restrictions turned a
+/// step away. A search that none of them turned away explored just what a search
+/// without them explores, so that search would find nothing either (and a search with
+/// more restrictions finds nothing where one with fewer found nothing).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub(super) struct Miss {
+    /// A step beyond the reach.
+    pub(super) reach: bool,
+    /// A step that would have cut a cell below a held (finite) floor.
+    pub(super) held: bool,
+    /// A step whose gully's walls would have cut a held side (`Floors::spare`).
+    pub(super) spare: bool,
+}
+
+/// A search's restrictions: whether held floors hold, whether the gully's walls spare
+/// the held sides, and its reach in cells.
+pub(super) type Restrictions = (bool, bool, usize);
+
+impl Miss {
+    /// Whether a search under `new`, from the same pit on the same terrain, would
+    /// explore just what the search under `old` that missed so explored: it lifts only
+    /// restrictions that turned nothing away (so it finds nothing either).
+    pub(super) fn covers(self, old: Restrictions, new: Restrictions) -> bool {
+        let lifted = |was: bool, now: bool, met: bool| was == now || (was && !now && !met);
+        lifted(old.0, new.0, self.held) && lifted(old.1, new.1, self.spare) && (old.2 == new.2 || (old.2 < new.2 && !self.reach))
+    }
+}
+
 /// The least-cost path from `pit` to a cell lower than the line falling from it (or to
 /// the border) within the `limits`, never through a cell that may not be cut (`floor`
 /// infinite), never cutting one below its floor: the cells from the pit to that cell,
-/// or `None`.
+/// or why there is none.
 pub(super) fn breach_path(
     h: &Heightfield,
     topo: Topology,
@@ -164,8 +192,9 @@ pub(super) fn breach_path(
     floor: Floors,
     limits: Limits,
     scratch: &mut Scratch,
-) -> Option<Vec<usize>> {
+) -> Result<Vec<usize>, Miss> {
     let Limits { reach, max_cut, max_cost } = limits;
+    let mut miss = Miss::default();
     scratch.clear();
     // `held_drop`: how deep a cell beside a held side may be cut, found once per cell (a
     // cell is reached from up to eight neighbours, and the terrain does not change
@@ -180,7 +209,7 @@ pub(super) fn breach_path(
             continue;
         }
         if cost > max_cost {
-            return None;
+            return Err(miss);
         }
         let line = z - FALL_PER_CELL * steps as f32;
         if c != pit && (h.data[c] < line || topo.is_outlet(c)) {
@@ -194,16 +223,24 @@ pub(super) fn breach_path(
                 at = from;
             }
             path.reverse();
-            return Some(path);
+            return Ok(path);
         }
         for j in topo.neighbours(c) {
             let (dx, dy) = topo.offset(pit, j);
-            if floor.at(j) == f32::INFINITY || !h.data[j].is_finite() || dx.abs().max(dy.abs()) as usize > reach {
+            if floor.at(j) == f32::INFINITY || !h.data[j].is_finite() {
+                continue;
+            }
+            if dx.abs().max(dy.abs()) as usize > reach {
+                miss.reach = true;
                 continue;
             }
             let next_line = z - FALL_PER_CELL * (steps + 1) as f32;
             let cut = (h.data[j] - next_line).max(0.0);
-            if cut > max_cut || (cut > 0.0 && next_line < floor.at(j)) {
+            if cut > max_cut {
+                continue;
+            }
+            if cut > 0.0 && next_line < floor.at(j) {
+                miss.held = true;
                 continue;
             }
             if cut > 0.0
@@ -211,6 +248,7 @@ pub(super) fn breach_path(
                 && floor.near_held(j)
                 && cut > *held_drop.entry(j).or_insert_with(|| max_held_drop(h, topo, floor, topo.xy(j))) + 1.0
             {
+                miss.spare = true;
                 continue;
             }
             // the height the cell must lose, and a little per step so shorter paths win ties
@@ -222,5 +260,5 @@ pub(super) fn breach_path(
             }
         }
     }
-    None
+    Err(miss)
 }

@@ -340,3 +340,66 @@ fn a_breach_keeps_the_narrowest_gullys_walls_off_a_held_side_where_it_can() {
     let worst = h.data.iter().zip(&floor).map(|(v, f)| f - v).fold(f32::NEG_INFINITY, f32::max);
     assert!(worst <= 0.0, "a held cell {worst} m below its floor");
 }
+
+#[test]
+fn a_search_that_lifts_only_restrictions_a_missed_one_never_met_finds_nothing_either() {
+    use super::search::{breach_path, Limits, Miss, Restrictions, Scratch};
+    // rough terrains of pits and sills, with held floors (a valley's sides) and crests,
+    // searched from every pit under every set of restrictions the stage tries and
+    // under every cost bound from tight to none
+    let (w, hh) = (48usize, 40usize);
+    let mut checked = 0;
+    for seed in 0..6u32 {
+        let noise = |x: usize, y: usize| {
+            let k = (x as u32).wrapping_mul(73_856_093) ^ (y as u32).wrapping_mul(19_349_663) ^ seed.wrapping_mul(83_492_791);
+            (k.wrapping_mul(2_654_435_761) >> 16) as f32 / 65_536.0
+        };
+        let h: Heightfield = Grid::from_vec(
+            w,
+            hh,
+            (0..w * hh)
+                .map(|i| {
+                    let (x, y) = (i % w, i / w);
+                    300.0 + 2.0 * x as f32 + 40.0 * (x as f32 * 0.45).sin() * (y as f32 * 0.35).cos() + 30.0 * noise(x, y)
+                })
+                .collect(),
+        );
+        let topo = Topology::plain(&h);
+        let floor: Vec<f32> = (0..w * hh)
+            .map(|i| match (i % w, i / w) {
+                (x, _) if x == 20 + seed as usize => f32::INFINITY,
+                (_, y) if y == 12 || y == 28 => h.data[i] - 5.0,
+                _ => f32::NEG_INFINITY,
+            })
+            .collect();
+        let near = floors::near_held(&floor, topo);
+        let pits: Vec<usize> = (0..w * hh).filter(|&c| !search::has_way_down(&h, topo, c)).collect();
+        let configs: Vec<Restrictions> =
+            vec![(true, true, 8), (true, false, 8), (true, false, 40), (false, false, 8), (false, false, 40)];
+        let mut scratch = Scratch::default();
+        for &pit in &pits {
+            for max_cost in [5.0, 40.0, 400.0, f32::INFINITY] {
+                let run = |r: Restrictions, scratch: &mut Scratch| {
+                    let floor = Floors { floor: &floor, held: r.0, spare: r.1, near: &near };
+                    breach_path(&h, topo, pit, floor, Limits { reach: r.2, max_cut: 80.0, max_cost }, scratch)
+                };
+                let results: Vec<Result<Vec<usize>, Miss>> = configs.iter().map(|&r| run(r, &mut scratch)).collect();
+                for (i, old) in configs.iter().enumerate() {
+                    let Err(miss) = results[i] else { continue };
+                    for (j, new) in configs.iter().enumerate() {
+                        if i != j && miss.covers(*old, *new) {
+                            assert_eq!(
+                                results[j],
+                                Err(miss),
+                                "pit {pit}, cost ≤ {max_cost}: {old:?} missed as {miss:?}, {new:?}"
+                            );
+                            checked += 1;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    // the property was put to the test: searches with restrictions lifted
+    assert!(checked > 200, "{checked} pairs checked");
+}
