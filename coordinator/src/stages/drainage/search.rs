@@ -8,7 +8,7 @@ use crate::solvers::hydrology::D8;
 use crate::solvers::tiled_flood::water_levels_in_parallel;
 use crate::solvers::total_order::Total;
 use ridgeline_terrain::grid::Heightfield;
-use rustc_hash::{FxHashMap, FxHashSet};
+use rustc_hash::FxHashMap;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
@@ -26,7 +26,7 @@ pub(super) const FALL_PER_CELL: f32 = 1e-3;
 /// held before makes no difference to a search.
 #[derive(Default)]
 pub(super) struct Scratch {
-    seen: FxHashSet<usize>,
+    seen: CellSet,
     best: FxHashMap<usize, (f32, u32, usize)>,
     held_drop: FxHashMap<usize, f32>,
     heap: BinaryHeap<Reverse<(Total<f32>, usize)>>,
@@ -36,17 +36,54 @@ impl Scratch {
     /// Empties every map and the heap (a large one is let go).
     fn clear(&mut self) {
         const KEEP: usize = 1 << 14;
-        if self.seen.capacity() > KEEP
-            || self.best.capacity() > KEEP
-            || self.held_drop.capacity() > KEEP
-            || self.heap.capacity() > KEEP
-        {
-            *self = Scratch::default();
+        self.seen.clear(KEEP);
+        if self.best.capacity() > KEEP || self.held_drop.capacity() > KEEP || self.heap.capacity() > KEEP {
+            *self = Scratch { seen: std::mem::take(&mut self.seen), ..Scratch::default() };
         }
-        self.seen.clear();
         self.best.clear();
         self.held_drop.clear();
         self.heap.clear();
+    }
+}
+
+/// A set of a grid's cells: a bit a cell (8 MiB on an 8192² canvas, grown to the grid
+/// on first use and kept), and the cells in it, so clearing it costs what the search
+/// put in. A flood out of one pit (`local_depth`) marks every cell it reaches; with a
+/// hash set those inserts were a tenth of an 8192² job's coarse level.
+#[derive(Default)]
+struct CellSet {
+    bits: Vec<u64>,
+    cells: Vec<usize>,
+}
+
+impl CellSet {
+    /// Adds `c` (a cell of a grid of `n` cells); whether it was not in the set.
+    fn insert(&mut self, c: usize, n: usize) -> bool {
+        if self.bits.len() < n.div_ceil(64) {
+            self.bits.resize(n.div_ceil(64), 0);
+        }
+        let (word, bit) = (c / 64, 1u64 << (c % 64));
+        let new = self.bits[word] & bit == 0;
+        if new {
+            self.bits[word] |= bit;
+            self.cells.push(c);
+        }
+        new
+    }
+
+    fn len(&self) -> usize {
+        self.cells.len()
+    }
+
+    /// Empties the set (a list of cells longer than `keep` is let go).
+    fn clear(&mut self, keep: usize) {
+        for &c in &self.cells {
+            self.bits[c / 64] = 0;
+        }
+        self.cells.clear();
+        if self.cells.capacity() > keep {
+            self.cells = Vec::new();
+        }
     }
 }
 
@@ -60,7 +97,8 @@ pub(super) fn local_depth(h: &Heightfield, topo: Topology, pit: usize, max_cells
     let Scratch { seen, heap, .. } = scratch;
     let z = h.data[pit];
     let mut spill = z;
-    seen.insert(pit);
+    let n = h.data.len();
+    seen.insert(pit, n);
     heap.push(Reverse((Total(z), pit)));
     while let Some(Reverse((Total(v), c))) = heap.pop() {
         if c != pit && v < z {
@@ -71,7 +109,7 @@ pub(super) fn local_depth(h: &Heightfield, topo: Topology, pit: usize, max_cells
             return spill - z;
         }
         for j in topo.neighbours(c) {
-            if h.data[j].is_finite() && seen.insert(j) {
+            if h.data[j].is_finite() && seen.insert(j, n) {
                 heap.push(Reverse((Total(h.data[j]), j)));
             }
         }

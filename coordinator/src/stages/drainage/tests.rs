@@ -403,3 +403,35 @@ fn a_search_that_lifts_only_restrictions_a_missed_one_never_met_finds_nothing_ei
     // the property was put to the test: searches with restrictions lifted
     assert!(checked > 200, "{checked} pairs checked");
 }
+
+#[test]
+fn a_flood_s_depth_does_not_depend_on_the_floods_before_it() {
+    // one scratch handed from flood to flood (its cell set cleared in between)
+    // against a fresh one per flood, from every cell without a way down of a rough
+    // terrain, stopped early or not
+    let (w, hh) = (90usize, 70usize);
+    let h: Heightfield = Grid::from_vec(
+        w,
+        hh,
+        (0..w * hh)
+            .map(|i| {
+                let (x, y) = ((i % w) as f32, (i / w) as f32);
+                500.0 + 1.5 * x + 60.0 * (x * 0.31).sin() * (y * 0.23).cos() + 25.0 * ((x * 1.7 + y * 2.3).sin())
+            })
+            .collect(),
+    );
+    let topo = Topology::plain(&h);
+    let pits: Vec<usize> = (0..w * hh).filter(|&c| !search::has_way_down(&h, topo, c)).collect();
+    assert!(pits.len() > 20, "{} pits", pits.len());
+    let mut shared = Default::default();
+    let mut deep = 0;
+    for &pit in &pits {
+        for cap in [30, 1 << 20] {
+            let again = local_depth(&h, topo, pit, cap, &mut shared);
+            let fresh = local_depth(&h, topo, pit, cap, &mut Default::default());
+            assert_eq!(again.to_bits(), fresh.to_bits(), "pit {pit}, cap {cap}");
+            deep += usize::from(cap > 30 && fresh > MIN_DEPTH_M);
+        }
+    }
+    assert!(deep > 5, "{deep} pits deeper than {MIN_DEPTH_M} m");
+}
