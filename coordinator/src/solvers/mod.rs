@@ -3,9 +3,11 @@
 //! preconditioned by [`two_level`]) and [`hydrology`] (priority-flood filling and
 //! routing, basins, drainage area; [`tiled_flood`]: its water levels by tiles in
 //! parallel), [`membrane`] (harmonic interpolation of fixed
-//! values), [`pull_push`] (pyramid interpolation of known values) and [`total_order`]
-//! (floats ordered for heaps). None knows about patches or sketches.
+//! values), [`pull_push`] (pyramid interpolation of known values), [`gaussian`] (a
+//! grid's Gaussian blur, the same bits everywhere) and [`total_order`] (floats ordered
+//! for heaps). None knows about patches or sketches.
 
+pub mod gaussian;
 pub mod graph_cut;
 pub mod hydrology;
 pub mod membrane;

@@ -47,7 +47,8 @@
 
 use crate::canvas::Canvas;
 use crate::job::settings::{JobSettings, MIN_PATCH};
-use crate::stages::base_surface::{gaussian_blur, BaseSurface, CoarseBand};
+use crate::solvers::gaussian::gaussian_blur;
+use crate::stages::base_surface::{BaseSurface, CoarseBand};
 use crate::stages::exemplars::common_cell_size;
 use rayon::prelude::*;
 use ridgeline_terrain::exemplar_source::ExemplarSource;

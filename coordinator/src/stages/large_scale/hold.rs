@@ -2,7 +2,8 @@
 //! pulled back to the target above a few patches ([`anchor`]), and the finished
 //! terrain kept within the form's elevation range ([`hold_range`]).
 
-use crate::stages::base_surface::{gaussian_blur, BaseSurface};
+use crate::solvers::gaussian::gaussian_blur;
+use crate::stages::base_surface::BaseSurface;
 use ridgeline_terrain::grid::Heightfield;
 
 /// Holds the finished terrain within the form's range: stretched to fill it (a range
