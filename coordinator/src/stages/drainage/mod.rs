@@ -322,12 +322,12 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floors: &SketchFloors, patch: 
                     let floor = Floors { floor, held, spare, near: &near };
                     let reaches = if far { &[SEARCH_PATCHES, FAR_SEARCH_PATCHES][..] } else { &[SEARCH_PATCHES][..] };
                     reaches.iter().find_map(|&patches| {
-                        let now = (held, spare, patches * patch);
+                        let now = search::Restrictions { held, spare, reach: patches * patch };
                         if let Some(&(_, miss)) = missed.iter().find(|&&(old, miss)| miss.covers(old, now)) {
                             missed.push((now, miss));
                             return None;
                         }
-                        let limits = Limits { reach: patches * patch, max_cut, max_cost };
+                        let limits = Limits { reach: now.reach, max_cut, max_cost };
                         match breach_path(h, topo, pit, floor, limits, &mut scratch.borrow_mut()) {
                             Ok(path) => Some((path, floor)),
                             Err(miss) => {

@@ -57,11 +57,16 @@ struct CellSet {
 }
 
 impl CellSet {
-    /// Adds `c` (a cell of a grid of `n` cells); whether it was not in the set.
-    fn insert(&mut self, c: usize, n: usize) -> bool {
+    /// Room for the cells of a grid of `n` cells.
+    fn fit(&mut self, n: usize) {
         if self.bits.len() < n.div_ceil(64) {
             self.bits.resize(n.div_ceil(64), 0);
         }
+    }
+
+    /// Adds `c` (a cell of the grid [`CellSet::fit`] made room for); whether it was
+    /// not in the set.
+    fn insert(&mut self, c: usize) -> bool {
         let (word, bit) = (c / 64, 1u64 << (c % 64));
         let new = self.bits[word] & bit == 0;
         if new {
@@ -97,8 +102,8 @@ pub(super) fn local_depth(h: &Heightfield, topo: Topology, pit: usize, max_cells
     let Scratch { seen, heap, .. } = scratch;
     let z = h.data[pit];
     let mut spill = z;
-    let n = h.data.len();
-    seen.insert(pit, n);
+    seen.fit(h.data.len());
+    seen.insert(pit);
     heap.push(Reverse((Total(z), pit)));
     while let Some(Reverse((Total(v), c))) = heap.pop() {
         if c != pit && v < z {
@@ -109,7 +114,7 @@ pub(super) fn local_depth(h: &Heightfield, topo: Topology, pit: usize, max_cells
             return spill - z;
         }
         for j in topo.neighbours(c) {
-            if h.data[j].is_finite() && seen.insert(j, n) {
+            if h.data[j].is_finite() && seen.insert(j) {
                 heap.push(Reverse((Total(h.data[j]), j)));
             }
         }
@@ -193,8 +198,7 @@ pub(super) struct Limits {
 
 /// Why a [`breach_path`] search found no way out: which of its restrictions turned a
 /// step away. A search that none of them turned away explored just what a search
-/// without them explores, so that search would find nothing either (and a search with
-/// more restrictions finds nothing where one with fewer found nothing).
+/// without them explores, so that search would find nothing either.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub(super) struct Miss {
     /// A step beyond the reach.
@@ -206,8 +210,13 @@ pub(super) struct Miss {
 }
 
 /// A search's restrictions: whether held floors hold, whether the gully's walls spare
-/// the held sides, and its reach in cells.
-pub(super) type Restrictions = (bool, bool, usize);
+/// the held sides (`Floors::held`, `Floors::spare`), and its reach in cells.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) struct Restrictions {
+    pub(super) held: bool,
+    pub(super) spare: bool,
+    pub(super) reach: usize,
+}
 
 impl Miss {
     /// Whether a search under `new`, from the same pit on the same terrain, would
@@ -215,7 +224,9 @@ impl Miss {
     /// restrictions that turned nothing away (so it finds nothing either).
     pub(super) fn covers(self, old: Restrictions, new: Restrictions) -> bool {
         let lifted = |was: bool, now: bool, met: bool| was == now || (was && !now && !met);
-        lifted(old.0, new.0, self.held) && lifted(old.1, new.1, self.spare) && (old.2 == new.2 || (old.2 < new.2 && !self.reach))
+        lifted(old.held, new.held, self.held)
+            && lifted(old.spare, new.spare, self.spare)
+            && (old.reach == new.reach || (old.reach < new.reach && !self.reach))
     }
 }
 

@@ -375,13 +375,15 @@ fn a_search_that_lifts_only_restrictions_a_missed_one_never_met_finds_nothing_ei
         let near = floors::near_held(&floor, topo);
         let pits: Vec<usize> = (0..w * hh).filter(|&c| !search::has_way_down(&h, topo, c)).collect();
         let configs: Vec<Restrictions> =
-            vec![(true, true, 8), (true, false, 8), (true, false, 40), (false, false, 8), (false, false, 40)];
+            [(true, true, 8), (true, false, 8), (true, false, 40), (false, false, 8), (false, false, 40)]
+                .map(|(held, spare, reach)| Restrictions { held, spare, reach })
+                .to_vec();
         let mut scratch = Scratch::default();
         for &pit in &pits {
             for max_cost in [5.0, 40.0, 400.0, f32::INFINITY] {
                 let run = |r: Restrictions, scratch: &mut Scratch| {
-                    let floor = Floors { floor: &floor, held: r.0, spare: r.1, near: &near };
-                    breach_path(&h, topo, pit, floor, Limits { reach: r.2, max_cut: 80.0, max_cost }, scratch)
+                    let floor = Floors { floor: &floor, held: r.held, spare: r.spare, near: &near };
+                    breach_path(&h, topo, pit, floor, Limits { reach: r.reach, max_cut: 80.0, max_cost }, scratch)
                 };
                 let results: Vec<Result<Vec<usize>, Miss>> = configs.iter().map(|&r| run(r, &mut scratch)).collect();
                 for (i, old) in configs.iter().enumerate() {
