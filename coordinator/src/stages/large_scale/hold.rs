@@ -80,16 +80,18 @@ pub fn anchor_above(h: &mut Heightfield, target: &BaseSurface, sigma_cells: f32)
     let (w, hh) = (h.width, h.height);
     let block = ((sigma_cells / 2.0) as usize).max(1);
     let (cw, ch) = (w.div_ceil(block), hh.div_ceil(block));
+    let rows = target.rows(w);
     let means: Vec<f32> = (0..cw * ch)
         .into_par_iter()
         .map(|b| {
             let (bx, by) = (b % cw * block, b / cw * block);
             let (mut sum, mut n) = (0f64, 0usize);
             for y in by..(by + block).min(hh) {
+                let under = rows.row(y);
                 for x in bx..(bx + block).min(w) {
                     let v = h.data[y * w + x];
                     if v.is_finite() {
-                        sum += (v - target.at(x, y)) as f64;
+                        sum += (v - under(x)) as f64;
                         n += 1;
                     }
                 }
@@ -104,15 +106,18 @@ pub fn anchor_above(h: &mut Heightfield, target: &BaseSurface, sigma_cells: f32)
     let sigma = sigma_cells / block as f32;
     let grid_sigma = (sigma * sigma - 5.0 / 12.0).max(0.0).sqrt();
     let departure = BaseSurface::from_grid(block, cw, ch, gaussian_blur(&means, cw, ch, grid_sigma));
+    let departures = departure.rows(w);
     let most = h
         .data
-        .par_iter_mut()
+        .par_chunks_mut(w)
         .enumerate()
-        .filter(|(_, v)| v.is_finite())
-        .map(|(i, v)| {
-            let d = departure.at(i % w, i / w);
-            *v -= d;
-            d.abs()
+        .map(|(y, row)| {
+            let d = departures.row(y);
+            row.iter_mut().enumerate().filter(|(_, v)| v.is_finite()).fold(0f32, |most, (x, v)| {
+                let d = d(x);
+                *v -= d;
+                most.max(d.abs())
+            })
         })
         .reduce(|| 0.0, f32::max);
     tracing::info!(largest_change_m = most, "terrain held to the large-scale target");

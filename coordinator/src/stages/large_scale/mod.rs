@@ -486,7 +486,12 @@ fn segment_distance2(a: [f32; 2], b: [f32; 2], x: f32, y: f32) -> (f32, f32) {
 /// The target over the whole output, for the debug view.
 pub fn target_heights(form: &LargeScale, canvas: &Canvas) -> Heightfield {
     let (w, h) = canvas.full_size();
-    Heightfield::from_vec(w, h, (0..w * h).map(|i| form.target.at(i % w, i / w)).collect())
+    let rows = form.target.rows(w);
+    let mut out = Vec::with_capacity(w * h);
+    for y in 0..h {
+        out.extend((0..w).map(rows.row(y)));
+    }
+    Heightfield::from_vec(w, h, out)
 }
 
 #[cfg(test)]
