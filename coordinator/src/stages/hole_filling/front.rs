@@ -455,6 +455,58 @@ mod tests {
     }
 
     #[test]
+    fn the_front_tables_count_what_a_scan_of_each_window_counts() {
+        // a canvas with ragged holes, some on its border
+        let (w, h) = (40, 30);
+        let mut c = Canvas::new(w, h, 16);
+        for y in 0..h {
+            for x in 0..w {
+                let k = (x * 31 + y * 17) % 23;
+                let hole = (x + 2 * y) % 13 < 4 || (x > 25 && y < 9) || k == 0;
+                if !hole {
+                    c.heights.set(x, y, 500.0 + (x * x) as f32 * 0.7 - y as f32 * 3.1 + k as f32);
+                }
+            }
+        }
+        // each cell by its definition: filled; with an empty 4-neighbour in the grid;
+        // the largest flow into the hole from the filled cell behind, over those
+        let cell = |x: usize, y: usize| -> (u32, u32, f64) {
+            let v = c.heights.get(x, y);
+            if v.is_nan() {
+                return (0, 0, 0.0);
+            }
+            let at = |dx: i64, dy: i64| c.heights.get_i(x as i64 + dx, y as i64 + dy);
+            let (mut front, mut g) = (false, 0f32);
+            for (dx, dy) in [(1i64, 0i64), (-1, 0), (0, 1), (0, -1)] {
+                if at(dx, dy).is_some_and(|u| u.is_nan()) {
+                    front = true;
+                    if let Some(b) = at(-dx, -dy).filter(|b| !b.is_nan()) {
+                        g = g.max(flow_into_hole(b - v));
+                    }
+                }
+            }
+            (1, u32::from(front), if front { g as f64 } else { 0.0 })
+        };
+        for (x0, y0, x1, y1) in [(0, 0, w, h), (3, 2, 37, 29), (10, 5, 20, 6)] {
+            let sums = FrontSums::over(&c, x0, y0, x1, y1);
+            for (wx, wy, ww, wh) in [(x0, y0, x1 - x0, y1 - y0), (x0 + 1, y0, (x1 - x0) / 2, 1), (x1 - 3, y1 - 1, 3, 1)] {
+                let win = Win { x0: wx, y0: wy, w: ww, h: wh, px: 0, py: 0, patch: 16 };
+                let (mut filled, mut front, mut slope) = (0usize, 0u32, 0f64);
+                for y in wy..wy + wh {
+                    for x in wx..wx + ww {
+                        let (f, n, s) = cell(x, y);
+                        (filled, front, slope) = (filled + f as usize, front + n, slope + s);
+                    }
+                }
+                let (f, e, mean) = sums.window(&win);
+                assert_eq!((f, e), (filled, ww * wh - filled), "window at ({wx}, {wy})");
+                let want = if front > 0 { (slope / front as f64) as f32 } else { 0.0 };
+                assert!((mean - want).abs() <= 1e-4 * want.abs().max(1.0), "window at ({wx}, {wy}): {mean} against {want}");
+            }
+        }
+    }
+
+    #[test]
     fn the_data_term_follows_flow_into_the_hole_not_slope_along_the_front() {
         let win = Win::new(32, 16, 16, 64, 32);
         let mean = |c: &Canvas| FrontSums::over(c, 0, 0, 64, 32).window(&win).2;
