@@ -254,6 +254,7 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floors: &SketchFloors, patch: 
     let scratch = std::cell::RefCell::new(Scratch::default());
     stats.depressions = pits.len();
     for pass in 0..PASSES {
+        let started = std::time::Instant::now();
         let mut breached = 0;
         let mut left = 0;
         for &(_, pit, depth) in &pits {
@@ -417,6 +418,7 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floors: &SketchFloors, patch: 
         water = Vec::new();
         stats.breached += breached;
         stats.left = left;
+        tracing::debug!(pass, pits = pits.len(), breached, left, seconds = started.elapsed().as_secs_f64(), "conditioning pass");
         if breached == 0 {
             break;
         }
