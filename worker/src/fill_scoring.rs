@@ -158,8 +158,12 @@ pub fn cost_below(
         if eighths < 8 && done > 0 {
             let (sum, sum2) = acc.total();
             let m = (4 * done) as f64;
-            // the deviations of these m about their mean, less a margin far above the
-            // rounding of either sum (both are sums of a few hundred squares)
+            // the deviations of these m about their mean, less a margin: either
+            // variance is rounded by about 1e-14 of its mean square (sums of a few
+            // hundred squares), the margin is 1e-10 of the mean square so far, so the
+            // bound stays below the exact value unless the whole's mean square were
+            // 10⁴ times that of its first eighth (the differences' common offset, the
+            // candidate's level against the window's, keeps them alike)
             let lower = (sum2 - sum * sum / m) / n - 1e-10 * (1.0 + sum2 / m);
             let co = (lower.max(0.0)).sqrt() as f32 / q.relief;
             if cost_of(prep, s, ci, vi, seed, t, co) > limit {
