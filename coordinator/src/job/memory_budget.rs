@@ -107,7 +107,12 @@ pub fn human(bytes: u64) -> String {
     }
 }
 
-/// Refuses a job of `width x height` output cells whose estimate exceeds `budget`
+/// The most cells an output may have: the drainage conditioning's floods and searches
+/// keep a cell's index in 32 bits beside its height (`solvers::total_order::Keyed`).
+pub const MAX_OUTPUT_CELLS: u64 = 1 << 32;
+
+/// Refuses a job of more than [`MAX_OUTPUT_CELLS`], or of `width x height` output
+/// cells whose estimate exceeds `budget`
 /// (`--max-memory`), or, without one, the memory available now. `library` holds each
 /// in-process exemplar's name and cells (empty when the library lives on workers); the
 /// refusal names the largest.
@@ -119,6 +124,12 @@ pub fn check(
     evaluated: bool,
     budget: Option<u64>,
 ) -> Result<Estimate, String> {
+    if width.saturating_mul(height) > MAX_OUTPUT_CELLS {
+        return Err(format!(
+            "{}: a {width} x {height} terrain has more than {MAX_OUTPUT_CELLS} cells (65,536 x 65,536), the most one job makes (its drainage searches index cells in 32 bits); use a smaller sketch",
+            sketch.display()
+        ));
+    }
     let library_cells = library.iter().fold(0u64, |a, (_, c)| a.saturating_add(*c));
     let est = Estimate::new(width.saturating_mul(height), library_cells, evaluated);
     let per_cell = est.output_bytes / width.saturating_mul(height).max(1);
@@ -183,5 +194,9 @@ mod tests {
         assert!(e.contains("s.png") && e.contains("needs about 6.8 GiB") && e.contains("18 bytes per cell"), "{e}");
         assert!(e.contains("--max-memory budget (1.0 GiB)"), "{e}");
         assert!(available_bytes().is_some_and(|b| b > 0));
+        // more cells than the drainage's 32-bit cell indices hold, whatever the budget
+        assert!(check(p, 65536, 65536, &[], false, Some(u64::MAX)).is_ok());
+        let e = check(p, 65537, 65536, &[], false, Some(u64::MAX)).unwrap_err();
+        assert!(e.contains("s.png") && e.contains("65537 x 65536") && e.contains("more than 4294967296 cells"), "{e}");
     }
 }

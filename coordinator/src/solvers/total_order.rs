@@ -45,6 +45,34 @@ impl<T: TotalCmp> Ord for Total<T> {
     }
 }
 
+/// A height and a cell in one word that orders as `(Total(height), cell)` does: a
+/// heap of them pops in the same order, with half the bytes and one comparison (the
+/// drainage conditioning's floods out of single pits and its breach searches). The
+/// cell must be below 2³²: a job refuses an output of more cells before any work
+/// (`job::memory_budget::MAX_OUTPUT_CELLS`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub struct Keyed(u64);
+
+impl Keyed {
+    pub fn new(v: f32, cell: usize) -> Keyed {
+        debug_assert!(cell <= u32::MAX as usize, "a cell index of 32 bits");
+        let b = v.to_bits();
+        // flipping the sign bit of a positive float, and every bit of a negative one,
+        // gives an unsigned integer in the floats' total order
+        let key = if b >> 31 == 1 { !b } else { b | 1 << 31 };
+        Keyed(u64::from(key) << 32 | cell as u64)
+    }
+
+    pub fn value(self) -> f32 {
+        let key = (self.0 >> 32) as u32;
+        f32::from_bits(if key >> 31 == 1 { key & !(1 << 31) } else { !key })
+    }
+
+    pub fn cell(self) -> usize {
+        (self.0 & u64::from(u32::MAX)) as usize
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -58,5 +86,24 @@ mod tests {
             [(-1.0f32).to_bits(), (-0.0f32).to_bits(), 0, 2.5f32.to_bits()]
         );
         assert!(Total(1.0f64) < Total(f64::NAN), "NaN sorts last, never panics");
+    }
+
+    #[test]
+    fn a_keyed_cell_orders_as_its_total_and_cell_do() {
+        let values = [-3.5f32, -0.0, 0.0, 1e-30, 2.5, 2.5000002, 8848.0, f32::INFINITY, -f32::INFINITY, 4000.123];
+        let cells = [0usize, 1, 7, 65_535, 1 << 26, u32::MAX as usize];
+        let mut pairs = Vec::new();
+        for &v in &values {
+            for &c in &cells {
+                pairs.push((v, c));
+            }
+        }
+        for &(v, c) in &pairs {
+            let k = Keyed::new(v, c);
+            assert_eq!((k.value().to_bits(), k.cell()), (v.to_bits(), c), "({v}, {c}) back out");
+            for &(u, d) in &pairs {
+                assert_eq!(k.cmp(&Keyed::new(u, d)), (Total(v), c).cmp(&(Total(u), d)), "({v}, {c}) against ({u}, {d})");
+            }
+        }
     }
 }
