@@ -107,8 +107,9 @@ pub fn human(bytes: u64) -> String {
     }
 }
 
-/// The most cells an output may have: the drainage conditioning's floods and searches
-/// keep a cell's index in 32 bits beside its height (`solvers::total_order::Keyed`).
+/// The most cells an output may have: the priority floods and the drainage
+/// conditioning's searches keep a cell's index in 32 bits beside its height
+/// (`solvers::total_order::Keyed`).
 pub const MAX_OUTPUT_CELLS: u64 = 1 << 32;
 
 /// Refuses a job of more than [`MAX_OUTPUT_CELLS`], or of `width x height` output

@@ -22,6 +22,7 @@
 //! drainage stage (breaching) and the evaluation must compute it identically.
 //! Deterministic: ties in the heap are broken by cell index.
 
+use crate::solvers::total_order::Keyed;
 use ridgeline_terrain::grid::Heightfield;
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, VecDeque};
@@ -47,14 +48,6 @@ pub struct Flooded {
     /// Cells in the order they were flooded, by nondecreasing level: every cell after
     /// the one it drains to.
     pub order: Vec<u32>,
-}
-
-/// The heap key of a level and a cell: the level's bits mapped so that integer order
-/// is the float's total order, then the index (ties broken by cell index).
-pub(crate) fn key(level: f32, i: usize) -> Reverse<u64> {
-    let b = level.to_bits();
-    let ordered = if b >> 31 == 1 { !b } else { b | 0x8000_0000 };
-    Reverse(((ordered as u64) << 32) | i as u64)
 }
 
 /// The 8-neighbours of a cell of a `w` x `h` grid, as indices: the floods' inner loop
@@ -125,14 +118,14 @@ fn priority_flood(h: &Heightfield, mut reached: impl FnMut(usize, usize), mut se
     let n = w * hh;
     let mut level = h.data.clone();
     let mut done = vec![false; n];
-    let mut heap: BinaryHeap<Reverse<u64>> = BinaryHeap::new();
+    let mut heap: BinaryHeap<Reverse<Keyed>> = BinaryHeap::new();
     let mut pit: VecDeque<u32> = VecDeque::new();
-    seed(h, &mut done, |i| heap.push(key(level[i], i)), &mut settled);
+    seed(h, &mut done, |i| heap.push(Reverse(Keyed::new(level[i], i))), &mut settled);
     loop {
         let c = match pit.pop_front() {
             Some(c) => c as usize,
             None => match heap.pop() {
-                Some(Reverse(k)) => (k & 0xffff_ffff) as usize,
+                Some(Reverse(k)) => k.cell(),
                 None => break,
             },
         };
@@ -154,7 +147,7 @@ fn priority_flood(h: &Heightfield, mut reached: impl FnMut(usize, usize), mut se
                 level[j] = level[c];
                 pit.push_back(j as u32);
             } else {
-                heap.push(key(level[j], j));
+                heap.push(Reverse(Keyed::new(level[j], j)));
             }
         }
     }
@@ -178,8 +171,8 @@ pub fn water_levels(h: &Heightfield) -> Vec<f32> {
     let z = &h.data[..];
     let mut level = z.to_vec();
     let mut done = vec![false; w * hh];
-    let mut heap: BinaryHeap<Reverse<u64>> = BinaryHeap::new();
-    seed(h, &mut done, |i| heap.push(key(z[i], i)), |_| {});
+    let mut heap: BinaryHeap<Reverse<Keyed>> = BinaryHeap::new();
+    seed(h, &mut done, |i| heap.push(Reverse(Keyed::new(z[i], i))), |_| {});
     let mut pit: Vec<u32> = Vec::new();
     let mut slope: Vec<u32> = Vec::new();
     let grid = Neighbours8::new(w, hh);
@@ -188,7 +181,7 @@ pub fn water_levels(h: &Heightfield) -> Vec<f32> {
         let c = match pit.pop() {
             Some(c) => c as usize,
             None => match heap.pop() {
-                Some(Reverse(k)) => (k & 0xffff_ffff) as usize,
+                Some(Reverse(k)) => k.cell(),
                 None => break,
             },
         };
@@ -212,7 +205,7 @@ pub fn water_levels(h: &Heightfield) -> Vec<f32> {
             let k = k as usize;
             let m = grid.of(k, &mut around);
             if around[..m].iter().any(|&j| !done[j] && z[j] < z[k]) {
-                heap.push(key(z[k], k));
+                heap.push(Reverse(Keyed::new(z[k], k)));
                 continue;
             }
             for &j in &around[..m] {

@@ -29,8 +29,8 @@
 //!
 //! Written here: no crate floods heightfields, let alone by tiles.
 
-use super::hydrology::{key, Neighbours8, D8};
-use super::total_order::Total;
+use super::hydrology::{Neighbours8, D8};
+use super::total_order::{Keyed, Total};
 use rayon::prelude::*;
 use ridgeline_terrain::grid::Heightfield;
 use rustc_hash::FxHashMap;
@@ -66,7 +66,7 @@ fn flood_tile(h: &Heightfield, tile: Tile, any_void: bool, level: &mut [f32], la
     let at = |c: usize| (c / tw) * w + x0 + c % tw;
     let z = |c: usize| h.data[(y0 + c / tw) * w + x0 + c % tw];
     let mut done = vec![false; tw * th];
-    let mut heap: BinaryHeap<Reverse<u64>> = BinaryHeap::new();
+    let mut heap: BinaryHeap<Reverse<Keyed>> = BinaryHeap::new();
     let mut labels = 0u16;
     for ly in 0..th {
         for lx in 0..tw {
@@ -88,7 +88,7 @@ fn flood_tile(h: &Heightfield, tile: Tile, any_void: bool, level: &mut [f32], la
                     labels
                 };
                 done[c] = true;
-                heap.push(key(z(c), c));
+                heap.push(Reverse(Keyed::new(z(c), c)));
             }
         }
     }
@@ -99,7 +99,7 @@ fn flood_tile(h: &Heightfield, tile: Tile, any_void: bool, level: &mut [f32], la
         let c = match pit.pop() {
             Some(c) => c,
             None => match heap.pop() {
-                Some(Reverse(k)) => (k & 0xffff_ffff) as usize,
+                Some(Reverse(k)) => k.cell(),
                 None => break,
             },
         };
@@ -124,7 +124,7 @@ fn flood_tile(h: &Heightfield, tile: Tile, any_void: bool, level: &mut [f32], la
             let m = grid.of(k, &mut around);
             let zk = z(k);
             if around[..m].iter().any(|&j| !done[j] && z(j) < zk) {
-                heap.push(key(zk, k));
+                heap.push(Reverse(Keyed::new(zk, k)));
                 continue;
             }
             let lab = label[at(k)];

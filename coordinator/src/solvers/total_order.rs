@@ -47,7 +47,8 @@ impl<T: TotalCmp> Ord for Total<T> {
 
 /// A height and a cell in one word that orders as `(Total(height), cell)` does: a
 /// heap of them pops in the same order, with half the bytes and one comparison (the
-/// drainage conditioning's floods out of single pits and its breach searches). The
+/// priority floods of `solvers::hydrology` and `solvers::tiled_flood`, and the drainage
+/// conditioning's floods out of single pits and its breach searches). The
 /// cell must be below 2³²: a job refuses an output of more cells before any work
 /// (`job::memory_budget::MAX_OUTPUT_CELLS`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
