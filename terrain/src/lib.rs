@@ -11,6 +11,7 @@ pub mod error;
 pub mod exemplar_source;
 pub mod feature_extraction;
 pub mod feature_kind;
+pub mod float_order;
 pub mod generators;
 pub mod grid;
 pub mod height_stats;

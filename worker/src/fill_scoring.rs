@@ -26,6 +26,7 @@ use rayon::prelude::*;
 use ridgeline_terrain::costs::{
     jitter, noise_cost, plane_relief_ln, repeats, LaneSums, ALPHA_N, ALPHA_O, ALPHA_R, BETA_C, REPEAT_PENALTY, SEED_JITTER,
 };
+use ridgeline_terrain::float_order::{from_ordered_bits, ordered_bits};
 use ridgeline_terrain::shard::{FillBestSet, FillCandidate, FillQuery};
 use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
 
@@ -304,27 +305,17 @@ struct SharedBound(AtomicU32);
 
 impl Default for SharedBound {
     fn default() -> Self {
-        SharedBound(AtomicU32::new(Self::key(f32::INFINITY)))
+        SharedBound(AtomicU32::new(ordered_bits(f32::INFINITY)))
     }
 }
 
 impl SharedBound {
-    fn key(v: f32) -> u32 {
-        let b = v.to_bits();
-        if b >> 31 == 1 {
-            !b
-        } else {
-            b | 1 << 31
-        }
-    }
-
     fn get(&self) -> f32 {
-        let k = self.0.load(Relaxed);
-        f32::from_bits(if k >> 31 == 1 { k & !(1 << 31) } else { !k })
+        from_ordered_bits(self.0.load(Relaxed))
     }
 
     fn lower(&self, v: f32) {
-        self.0.fetch_min(Self::key(v), Relaxed);
+        self.0.fetch_min(ordered_bits(v), Relaxed);
     }
 }
 

@@ -2,6 +2,7 @@
 //! (breach paths, pit depths, the drainage base) can hold costs and heights: one
 //! definition, equality and order agreeing, instead of a wrapper per stage.
 
+use ridgeline_terrain::float_order::{from_ordered_bits, ordered_bits};
 use std::cmp::Ordering;
 
 /// Floats that have a total order.
@@ -57,16 +58,11 @@ pub struct Keyed(u64);
 impl Keyed {
     pub fn new(v: f32, cell: usize) -> Keyed {
         debug_assert!(cell <= u32::MAX as usize, "a cell index of 32 bits");
-        let b = v.to_bits();
-        // flipping the sign bit of a positive float, and every bit of a negative one,
-        // gives an unsigned integer in the floats' total order
-        let key = if b >> 31 == 1 { !b } else { b | 1 << 31 };
-        Keyed(u64::from(key) << 32 | cell as u64)
+        Keyed(u64::from(ordered_bits(v)) << 32 | cell as u64)
     }
 
     pub fn value(self) -> f32 {
-        let key = (self.0 >> 32) as u32;
-        f32::from_bits(if key >> 31 == 1 { key & !(1 << 31) } else { !key })
+        from_ordered_bits((self.0 >> 32) as u32)
     }
 
     pub fn cell(self) -> usize {
