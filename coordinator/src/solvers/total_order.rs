@@ -49,7 +49,7 @@ impl<T: TotalCmp> Ord for Total<T> {
 /// A height and a cell in one word that orders as `(Total(height), cell)` does: a
 /// heap of them pops in the same order, with half the bytes and one comparison (the
 /// priority floods of `solvers::hydrology` and `solvers::tiled_flood`, and the drainage
-/// conditioning's floods out of single pits and its breach searches). The
+/// conditioning's floods out of single pits, its fills and its breach searches). The
 /// cell must be below 2³²: a job refuses an output of more cells before any work
 /// (`job::memory_budget::MAX_OUTPUT_CELLS`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]

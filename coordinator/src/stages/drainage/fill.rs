@@ -31,7 +31,7 @@
 use super::floors::Ceiling;
 use super::search::FALL_PER_CELL;
 use super::topology::Topology;
-use crate::solvers::total_order::Total;
+use crate::solvers::total_order::Keyed;
 use ridgeline_terrain::grid::Heightfield;
 use rustc_hash::FxHashMap;
 use std::cmp::Reverse;
@@ -95,11 +95,12 @@ pub(super) fn fill_from(
     let mut joined: Vec<usize> = Vec::new();
     let mut seen: FxHashMap<usize, ()> = FxHashMap::default();
     seen.insert(pit, ());
-    let mut heap = BinaryHeap::from([Reverse((Total(z0), pit))]);
+    let mut heap = BinaryHeap::from([Reverse(Keyed::new(z0, pit))]);
     let mut level = z0;
     let mut spill = None;
     let mut lowest_ceiling = f32::INFINITY;
-    while let Some(Reverse((Total(v), c))) = heap.pop() {
+    while let Some(Reverse(k)) = heap.pop() {
+        let (v, c) = (k.value(), k.cell());
         if v < level && !water.is_some_and(|w| w[c] > v) {
             // lower ground outside: the water leaves the joined cells here
             spill = Some(c);
@@ -120,7 +121,7 @@ pub(super) fn fill_from(
         joined.push(c);
         for j in topo.neighbours(c) {
             if h.data[j].is_finite() && seen.insert(j, ()).is_none() {
-                heap.push(Reverse((Total(h.data[j]), j)));
+                heap.push(Reverse(Keyed::new(h.data[j], j)));
             }
         }
     }
