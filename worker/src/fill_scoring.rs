@@ -96,8 +96,8 @@ pub fn terms(q: &FillQuery, s: &Source, ci: usize, patch: usize) -> Terms {
 /// The ranking form of a candidate-variant's cost (CPU only; f64 sums in `LaneSums`
 /// order), given the candidate's [`terms`].
 pub fn exact_cost(q: &FillQuery, prep: &Prepared, s: &Source, ci: usize, vi: usize, seed: u64, t: &Terms) -> f32 {
-    let (sum, sum2) = moments(&s.featureless[ci].pixels, &prep.mapped[vi], &prep.values);
-    cost_of(prep, s, ci, vi, seed, t, overlap(sum, sum2, q.samples.len().max(1) as f64, q.relief))
+    // no cost passes an infinite limit, so every candidate is summed whole
+    cost_below(q, prep, s, ci, vi, seed, t, f32::INFINITY).unwrap_or(f32::INFINITY)
 }
 
 /// The overlap term: the RMS of the differences about their mean, over the relief.
@@ -124,7 +124,8 @@ fn cost_of(prep: &Prepared, s: &Source, ci: usize, vi: usize, seed: u64, t: &Ter
 const CHECKS: [usize; 5] = [1, 2, 4, 6, 8];
 
 /// [`exact_cost`], or `None` once a lower bound on it passes `limit`: the differences
-/// are summed in the same order, and at each of [`CHECKS`] the sum of squared
+/// d = pixels[idx[i]] − values[i] are summed (Σd, Σd², f64, `LaneSums` order), and at
+/// each of [`CHECKS`] the sum of squared
 /// deviations of those summed so far about their own mean, which the whole sum of
 /// squared deviations is never below, bounds the overlap from below. A candidate it
 /// turns away costs more than `limit` exactly, so it ranks after whatever set `limit`.
@@ -317,22 +318,6 @@ impl SharedBound {
     fn lower(&self, v: f32) {
         self.0.fetch_min(ordered_bits(v), Relaxed);
     }
-}
-
-/// Σd and Σd² of the differences d = pixels[idx[i]] − values[i] (`LaneSums` order).
-fn moments(pixels: &[f32], idx: &[u32], values: &[f32]) -> (f64, f64) {
-    let mut acc = LaneSums::default();
-    let (ci, cv) = (idx.chunks_exact(4), values.chunks_exact(4));
-    let (ri, rv) = (ci.remainder(), cv.remainder());
-    for (i4, v4) in ci.zip(cv) {
-        for l in 0..4 {
-            acc.add(l, (pixels[i4[l] as usize] - v4[l]) as f64);
-        }
-    }
-    for (l, (&i, &v)) in ri.iter().zip(rv).enumerate() {
-        acc.add(l, (pixels[i as usize] - v) as f64);
-    }
-    acc.total()
 }
 
 /// Checks a batch of fill targets before scoring: sample indices inside the patch,

@@ -355,21 +355,25 @@ impl BaseSurface {
     /// found once: the same values as [`BaseSurface::at`], bit for bit, without its
     /// per-cell taps (a whole canvas read through `at` cost about 2 s of an 8192² job).
     pub fn rows(&self, w: usize) -> Rows<'_> {
-        Rows { surface: self, cols: (0..w).map(|x| self.taps(x, self.cw)).collect() }
+        self.rows_over(0..w)
+    }
+
+    /// [`BaseSurface::rows`] over the given global columns, in their order.
+    fn rows_over(&self, columns: impl Iterator<Item = usize>) -> Rows<'_> {
+        Rows { surface: self, cols: columns.map(|x| self.taps(x, self.cw)).collect() }
     }
 
     /// The surface over a patch-sized array for window `win` of a canvas whose first
     /// cell is at global `origin` (cells of the patch outside the output get the
-    /// nearest edge value; they are never used). Column taps are found once.
+    /// nearest edge value; they are never used), read by rows ([`BaseSurface::rows`]).
     pub fn patch(&self, win: &Win, origin: (usize, usize)) -> Vec<f32> {
         let p = win.patch;
         let gx0 = (origin.0 + win.x0) as i64 - win.px as i64;
         let gy0 = (origin.1 + win.y0) as i64 - win.py as i64;
-        let cols: Vec<([usize; 4], [f32; 4])> = (0..p as i64).map(|i| self.taps((gx0 + i).max(0) as usize, self.cw)).collect();
+        let rows = self.rows_over((0..p as i64).map(|i| (gx0 + i).max(0) as usize));
         let mut out = Vec::with_capacity(p * p);
         for j in 0..p as i64 {
-            let row = self.taps((gy0 + j).max(0) as usize, self.ch);
-            out.extend(cols.iter().map(|col| self.sum(col, &row)));
+            out.extend((0..p).map(rows.row((gy0 + j).max(0) as usize)));
         }
         out
     }
@@ -382,11 +386,10 @@ pub struct Rows<'a> {
 }
 
 impl Rows<'_> {
-    /// The surface along global row `y`: the value at each column `x` below the
-    /// width the reader was made for.
+    /// The surface along global row `y`: the value at the reader's `k`-th column.
     pub fn row(&self, y: usize) -> impl Fn(usize) -> f32 + '_ {
         let taps = self.surface.taps(y, self.surface.ch);
-        move |x| self.surface.sum(&self.cols[x], &taps)
+        move |k| self.surface.sum(&self.cols[k], &taps)
     }
 }
 
