@@ -5,8 +5,9 @@ the previous commit beside the new one), and every figure of the job's report pr
 as a before/after table: adherence, ridge-above-valley both ways, sink area against
 the sources' weighted share, border drainage, elevation range against the sources',
 landform distance, flat share, spectral slope, roughness, seams, relief contrast
-against the sources' (where the binary reports it), the conditioning
-stage's time and cuts, total time and peak memory.
+against the sources' (where the binary reports it), the share closed before the
+conditioning (`sunk_pre%`, where the binary reports it), the conditioning stage's time
+and cuts, total time and peak memory.
 
 Pairs (ten; `--pairs` picks some by name):
   traced-alaska-1024  / no-alaska   valleys and ridges traced from alaska's drainage
@@ -283,6 +284,7 @@ def figures(rep):
         "seam": get(ev, "seams", "mean_ratio"),
         "relief": get(ev, "relief_contrast", "mean"),
         "src_relief": get(ev, "source_relief_contrast", "mean"),
+        "sunk_pre%": None if cond.get("cells_sunk_before") is None else 100 * cond["cells_sunk_before"] / (rep["width"] * rep["height"]),
         "cut_max": cond.get("max_cut_m"),
         "lowered%": None if cond.get("cells_lowered") is None else 100 * cond["cells_lowered"] / (rep["width"] * rep["height"]),
         "cut10%": None if cond.get("cells_lowered_over_10m") is None else 100 * cond["cells_lowered_over_10m"] / (rep["width"] * rep["height"]),

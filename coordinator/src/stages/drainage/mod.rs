@@ -102,6 +102,7 @@ mod floors;
 mod search;
 mod topology;
 
+use crate::solvers::hydrology::SINK_DEPTH_M;
 use crate::stages::sketch::SketchFeatures;
 use carve::{carve, gully, wall_slope};
 pub use carve::{BIG_CUT_M, MAX_GULLY_RADIUS, WALL_PER_MEDIAN_SLOPE};
@@ -180,6 +181,10 @@ fn cut_volume(cut: &[(usize, f32)]) -> f64 {
 /// What the conditioning did.
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
 pub struct DrainageStats {
+    /// Cells lying more than [`SINK_DEPTH_M`] below the depression-filled surface
+    /// before the conditioning: how much of the terrain the synthesis left closed
+    /// (the evaluation's sink share, counted before instead of after).
+    pub cells_sunk_before: usize,
     /// Depressions deeper than [`MIN_DEPTH_M`] found in the first pass.
     pub depressions: usize,
     /// Breach paths carved, cells they lowered, and the deepest cut (metres).
@@ -253,6 +258,7 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floors: &SketchFloors, patch: 
     let (mut pits, mut water) = pits(h, topo);
     let scratch = std::cell::RefCell::new(Scratch::default());
     stats.depressions = pits.len();
+    stats.cells_sunk_before = water.iter().zip(&h.data).filter(|(l, v)| v.is_finite() && *l - *v > SINK_DEPTH_M).count();
     for pass in 0..PASSES {
         let started = std::time::Instant::now();
         let mut breached = 0;

@@ -32,9 +32,12 @@ fn dammed() -> Heightfield {
 fn a_dammed_valley_is_breached_through_the_dam_with_few_cells() {
     let mut h = dammed();
     let before = h.clone();
-    assert!(drainage_shares(&h, 5.0).sink_share > 0.01, "the dam holds a lake");
+    let sunk = drainage_shares(&h, SINK_DEPTH_M).sink_share;
+    assert!(sunk > 0.01, "the dam holds a lake");
     let keep = vec![f32::NEG_INFINITY; h.data.len()];
     let s = breach_depressions(&mut h, &floors(&keep), 32, Hybrid::FillThenBreach);
+    // the closed cells before it are the evaluation's sink share of the terrain before
+    assert_eq!(s.cells_sunk_before, (sunk * h.data.len() as f64).round() as usize, "{s:?}");
     assert_eq!((s.depressions, s.left), (1, 0), "{s:?}");
     assert!(s.breached >= 1 && s.cells_lowered <= 150, "a short gully through the 3-cell dam, 2% of the cells: {s:?}");
     // the 30 m dam is cut by more than 10 m at its crest, its gully's flanks by less
