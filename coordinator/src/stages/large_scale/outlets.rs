@@ -24,6 +24,8 @@
 //! spline's coefficients instead, which it smooths, 7.7% and 7.3%). What is left lies
 //! between centres, where the spline rounds a carved way off.
 
+use super::grid_neighbours;
+
 /// The least fall of a carved way down, metres per grid step: enough for a strict
 /// descent, no more (the patches laid on the target bring the relief; a fall at the
 /// drainage base's valley rate instead lowered 7% of a traced sketch's grid cells
@@ -55,9 +57,10 @@ pub(super) fn carve_to_outlets(v: &[f32], cw: usize, ch: usize, fixed: &[bool], 
     while let Some(Reverse(k)) = heap.pop() {
         let c = k.cell();
         order.push(c);
+        let (x, y) = (c % cw, c / cw);
         // four neighbours: a way down diagonally between two cells is a saddle
         // the B-spline between their centres closes
-        for j in four_neighbours(c, cw, ch) {
+        for j in grid_neighbours(c, cw, ch).filter(|j| j % cw == x || j / cw == y) {
             if seen[j] {
                 continue;
             }
@@ -75,14 +78,6 @@ pub(super) fn carve_to_outlets(v: &[f32], cw: usize, ch: usize, fixed: &[bool], 
         }
     }
     out
-}
-
-/// The 4-neighbours of grid cell `c` in a `cw x ch` grid.
-fn four_neighbours(c: usize, cw: usize, ch: usize) -> impl Iterator<Item = usize> {
-    let (x, y) = (c % cw, c / cw);
-    [(x > 0).then(|| c - 1), (x + 1 < cw).then(|| c + 1), (y > 0).then(|| c - cw), (y + 1 < ch).then(|| c + cw)]
-        .into_iter()
-        .flatten()
 }
 
 #[cfg(test)]
@@ -121,7 +116,7 @@ mod tests {
         for i in (0..w * h).filter(|&i| !fixed[i]) {
             let (x, y) = (i % w, i / w);
             let border = x == 0 || y == 0 || x + 1 == w || y + 1 == h;
-            let lower = four_neighbours(i, w, h).any(|j| !fixed[j] && out[j] <= out[i] - 1.0);
+            let lower = grid_neighbours(i, w, h).any(|j| !fixed[j] && out[j] <= out[i] - 1.0);
             assert!(border || lower, "cell ({x}, {y}) has no way down");
         }
         assert_eq!(closed(&out, w, h, 0.0), 0, "nothing closed is left");
