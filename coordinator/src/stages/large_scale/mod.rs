@@ -24,8 +24,7 @@
 //! screened membrane (`solvers::membrane`) pulled to the drainage base with a strength
 //! `(cell / L)²`, so each stroke's influence fades over its landform scale: wide
 //! strokes make broad massifs and basins, thin ones narrow ridges and valleys. The
-//! target is the cubic B-spline over that grid, carved where a constraint dammed
-//! a way down (`outlets`): every cell ridges do not close off drains to the border.
+//! target is the cubic B-spline over that grid.
 //!
 //! **Range.** The output stays within its sources' elevation range (the lowest and
 //! highest cell of the sources that supplied it), or within the range asked for
@@ -47,7 +46,6 @@ use ridgeline_terrain::{FeatureKind, PerKind};
 use std::collections::VecDeque;
 
 mod hold;
-mod outlets;
 pub use hold::{anchor, hold_range, hold_to_coarse, ANCHOR_SIGMA_PATCHES, COARSE_HOLD_BANDS};
 
 /// A stroke of width `w` shapes a landform of about this many times `w` across.
@@ -122,10 +120,6 @@ pub struct FormStats {
     /// The base level and the range held, metres.
     pub base_level: f32,
     pub range: [f32; 2],
-    /// Cells of the target's grid lowered so that every cell has a way down to the
-    /// border (`outlets`), and the deepest such cut (metres).
-    pub carved_cells: usize,
-    pub deepest_carve_m: f32,
     /// On a coarse level, the largest change that held its terrain to the target above
     /// a few patches ([`anchor`]), metres; 0 on a single level.
     pub held_to_target_m: f32,
@@ -279,23 +273,14 @@ pub fn plan(sk: &SketchFeatures, lib: &LibraryForm, patch: usize, asked: Option<
             values.iter_mut().for_each(|v| *v = mid + (*v - mid) * k);
         }
     }
-    let values: Vec<f32> = values.into_iter().map(|v| v as f32).collect();
-    // every cell that ridges do not close off gets a way down to the border (see
-    // `outlets`); ridge cells and the artist's elevations stay
-    let fixed: Vec<bool> = (0..cw * ch)
-        .map(|i| enclosed[i] || kind_of[i] == Some(FeatureKind::Ridge) || held[i].values().any(|c| c.given_n > 0))
-        .collect();
-    let mut target = BaseSurface::from_grid(cell, cw, ch, values);
-    let smooth = target.at_cell_centres();
-    let carved = outlets::carve_to_outlets(&smooth, cw, ch, &fixed, outlets::FALL_M);
-    let delta: Vec<f32> = carved.iter().zip(&smooth).map(|(c, s)| c - s).collect();
-    stats.carved_cells = delta.iter().filter(|d| **d < 0.0).count();
-    stats.deepest_carve_m = delta.iter().fold(0f32, |m, d| m.max(-d));
-    if stats.carved_cells > 0 {
-        target.add_at_cell_centres(&delta);
-    }
     tracing::info!(?stats, "large-scale form planned");
-    LargeScale { target, range, stretch: asked.is_some() && !carries_elevations, stats }
+    let values: Vec<f32> = values.into_iter().map(|v| v as f32).collect();
+    LargeScale {
+        target: BaseSurface::from_grid(cell, cw, ch, values),
+        range,
+        stretch: asked.is_some() && !carries_elevations,
+        stats,
+    }
 }
 
 /// The 8-neighbours of grid cell `c`.
@@ -556,32 +541,6 @@ mod tests {
         assert!((left - right).abs() > 10.0, "{left} {right}: one end is the outlet");
         assert_eq!((f.stats.valleys_to_outlets, f.stats.closed_basins), (1, 0));
         assert!(f.stats.constrained_cells >= 3 * 25, "three lines of 26 grid cells");
-    }
-
-    #[test]
-    fn the_target_drains_round_a_ridge_across_its_valley_s_way_out() {
-        // a valley whose end nearest the border (the top) lies behind a long ridge:
-        // its corridor to the border runs into the ridge, which must not be cut
-        let mut s = Grid::new(256, 256, 128u8);
-        for d in 0..3 {
-            for x in 10..246 {
-                s.set(x, 30 + d, 255);
-            }
-            for y in 50..150 {
-                s.set(127 + d, y, 0);
-            }
-        }
-        let sk = analyse(&s, 32);
-        let f = plan(&sk, &library(), 32, None);
-        let (cw, ch) = f.target.grid_size();
-        let at = f.target.at_cell_centres();
-        let g = Grid::from_vec(cw, ch, at.clone());
-        let level = crate::solvers::hydrology::water_levels(&g);
-        let closed = level.iter().zip(&at).filter(|(l, z)| *l - *z > 1.0).count();
-        assert!(f.stats.carved_cells > 0, "{:?}", f.stats);
-        assert_eq!(closed, 0, "grid cells closed: {:?}", f.stats);
-        // the ridge still stands above the valley and its way out
-        assert!(f.target.at(128, 31) > f.target.at(128, 60) + 100.0, "{} {}", f.target.at(128, 31), f.target.at(128, 60));
     }
 
     #[test]
