@@ -277,6 +277,11 @@ def figures(rep):
     lf, slf = ev.get("landforms") or {}, ev.get("source_landforms") or {}
     rng, srng = ev.get("elevation_range") or [None, None], ev.get("source_elevation_range") or [None, None]
     cond = get(rep, "large_scale", "drainage") or {}
+
+    def per_cell(key):
+        # a count of the conditioning's as a percentage of the output's cells
+        return None if cond.get(key) is None else 100 * cond[key] / (rep["width"] * rep["height"])
+
     return {
         "ridge": get(ev, "adherence", "ridge"),
         "valley": get(ev, "adherence", "valley"),
@@ -294,11 +299,11 @@ def figures(rep):
         "seam": get(ev, "seams", "mean_ratio"),
         "relief": get(ev, "relief_contrast", "mean"),
         "src_relief": get(ev, "source_relief_contrast", "mean"),
-        "sunk_pre%": None if cond.get("cells_sunk_before") is None else 100 * cond["cells_sunk_before"] / (rep["width"] * rep["height"]),
+        "sunk_pre%": per_cell("cells_sunk_before"),
         "cut_max": cond.get("max_cut_m"),
-        "lowered%": None if cond.get("cells_lowered") is None else 100 * cond["cells_lowered"] / (rep["width"] * rep["height"]),
-        "cut10%": None if cond.get("cells_lowered_over_10m") is None else 100 * cond["cells_lowered_over_10m"] / (rep["width"] * rep["height"]),
-        "raised%": None if cond.get("cells_raised") is None else 100 * cond["cells_raised"] / (rep["width"] * rep["height"]),
+        "lowered%": per_cell("cells_lowered"),
+        "cut10%": per_cell("cells_lowered_over_10m"),
+        "raised%": per_cell("cells_raised"),
         "fit_max": get(rep, "sketch_fit", "max_change"),
         "fit_s": stages.get("sketch_fit"),
         "cond_s": stages.get("conditioning"),
