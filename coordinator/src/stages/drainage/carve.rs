@@ -170,14 +170,9 @@ pub(super) fn gully(
     by_cell
 }
 
-/// Lowers the terrain by a [`gully`]'s cut. Returns the cells lowered, those lowered
-/// by more than [`BIG_CUT_M`], and the deepest cut.
-pub(super) fn carve(h: &mut Heightfield, cut: &[(usize, f32)]) -> (usize, usize, f32) {
-    let (mut big, mut deepest) = (0, 0f32);
+/// Lowers the terrain by a [`gully`]'s cut.
+pub(super) fn carve(h: &mut Heightfield, cut: &[(usize, f32)]) {
     for &(j, d) in cut {
-        deepest = deepest.max(d);
         h.data[j] -= d;
-        big += usize::from(d > BIG_CUT_M);
     }
-    (cut.len(), big, deepest)
 }

@@ -187,31 +187,75 @@ pub struct DrainageStats {
     pub cells_sunk_before: usize,
     /// Depressions deeper than [`MIN_DEPTH_M`] found in the first pass.
     pub depressions: usize,
-    /// Breach paths carved, cells they lowered, and the deepest cut (metres).
+    /// Breach paths carved, the cells they lowered (each counted once, however many
+    /// gullies cross it), and the deepest cut (metres).
     pub breached: usize,
     pub cells_lowered: usize,
     pub max_cut_m: f32,
-    /// Of the cells lowered, those cut by more than [`BIG_CUT_M`]: how much of the
-    /// breach's work is more than a trim.
+    /// Of the cells lowered, those cut by more than [`BIG_CUT_M`] in one gully: how
+    /// much of the breach's work is more than a trim.
     pub cells_lowered_over_10m: usize,
     /// Depressions left: closed by a sketched ridge, or with no way down near enough.
     pub left: usize,
     /// Depressions whose bottom was filled before the breach ([`fill_cells`] cells at
     /// most), of them those filled to their rim (no breach needed), the cells raised
-    /// and the largest rise (metres).
+    /// (each once) and the largest rise (metres).
     pub bottoms_filled: usize,
     pub filled_to_rim: usize,
     pub cells_raised: usize,
     pub max_rise_m: f32,
 }
 
+/// The cells the conditioning changed, a bit a cell each way (8 MiB each on an 8192²
+/// canvas), so a cell that several gullies cross (the breaches of a compound
+/// depression's basins share their way out) counts once: summed gully by gully, the
+/// cells lowered on traced-alaska-1024 came to 16.2% of the terrain where 14.3% had
+/// moved.
+struct Changed {
+    lowered: CellMarks,
+    lowered_over_10m: CellMarks,
+    raised: CellMarks,
+}
+
+/// A set of a grid's cells that only grows, and how many it holds.
+struct CellMarks {
+    bits: Vec<u64>,
+    count: usize,
+}
+
+impl CellMarks {
+    fn new(n: usize) -> CellMarks {
+        CellMarks { bits: vec![0; n.div_ceil(64)], count: 0 }
+    }
+
+    fn mark(&mut self, c: usize) {
+        let (word, bit) = (c / 64, 1u64 << (c % 64));
+        if self.bits[word] & bit == 0 {
+            self.bits[word] |= bit;
+            self.count += 1;
+        }
+    }
+}
+
 impl DrainageStats {
     /// Counts a depression's filled bottom that stays.
-    fn keep_fill(&mut self, f: &fill::Filled, to_rim: bool) {
+    fn keep_fill(&mut self, f: &fill::Filled, to_rim: bool, changed: &mut Changed) {
         self.bottoms_filled += 1;
         self.filled_to_rim += usize::from(to_rim);
-        self.cells_raised += f.raised.len();
+        f.raised.iter().for_each(|&(c, _)| changed.raised.mark(c));
         self.max_rise_m = self.max_rise_m.max(f.rise);
+    }
+
+    /// Counts a gully's cut (cells and how far each came down).
+    fn keep_cut(&mut self, cut: &[(usize, f32)], changed: &mut Changed) {
+        for &(c, d) in cut {
+            changed.lowered.mark(c);
+            if d > BIG_CUT_M {
+                changed.lowered_over_10m.mark(c);
+            }
+            self.max_cut_m = self.max_cut_m.max(d);
+        }
+        self.breached += 1;
     }
 }
 
@@ -250,6 +294,8 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floors: &SketchFloors, patch: 
     // (read only by a search that spares the held sides)
     let near = if hybrid.keeps_valley_sides() { floors::near_held(floor, topo) } else { Vec::new() };
     let mut stats = DrainageStats::default();
+    let n = h.data.len();
+    let mut changed = Changed { lowered: CellMarks::new(n), lowered_over_10m: CellMarks::new(n), raised: CellMarks::new(n) };
     let wall = wall_slope(h);
     // the first pass floods the whole terrain; a later pass takes every cell without a
     // lower neighbour, each with its depth from a flood out of that cell alone
@@ -285,7 +331,7 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floors: &SketchFloors, patch: 
             match &filled {
                 // filled to the depression's own spill level: it drains
                 Some(f) if f.drains && f.rise >= depth - SPILL_TOLERANCE_M => {
-                    stats.keep_fill(f, true);
+                    stats.keep_fill(f, true, &mut changed);
                     continue;
                 }
                 // spilt into a lower part of the same depression (one of several
@@ -393,7 +439,7 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floors: &SketchFloors, patch: 
                     Some((cells, c)) => {
                         let f = fill_from(h, topo, first_pit, cells, Some(&water), ceiling);
                         if c.is_none() {
-                            stats.keep_fill(&f, true);
+                            stats.keep_fill(&f, true, &mut changed);
                             continue;
                         }
                         (filled, cut) = (Some(f), c);
@@ -401,28 +447,25 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floors: &SketchFloors, patch: 
                 }
             }
             if let Some(f) = &filled {
-                stats.keep_fill(f, false);
+                stats.keep_fill(f, false, &mut changed);
             }
             // the whole fill where it raises less than the gully cuts
             let lowered = cut.as_ref().map_or(f64::INFINITY, |c| cut_volume(c));
             if whole.is_some_and(|v| v <= lowered) {
                 let f = fill_bottom(h, topo, first_pit, whole_fill_cells(patch), ceiling);
-                stats.keep_fill(&f, true);
+                stats.keep_fill(&f, true, &mut changed);
                 continue;
             }
             match cut {
                 Some(cut) => {
-                    let (lowered, big, deepest) = carve(h, &cut);
-                    stats.cells_lowered += lowered;
-                    stats.cells_lowered_over_10m += big;
-                    stats.max_cut_m = stats.max_cut_m.max(deepest);
+                    carve(h, &cut);
+                    stats.keep_cut(&cut, &mut changed);
                     breached += 1;
                 }
                 None => left += 1,
             }
         }
         water = Vec::new();
-        stats.breached += breached;
         stats.left = left;
         tracing::debug!(pass, pits = pits.len(), breached, left, seconds = started.elapsed().as_secs_f64(), "conditioning pass");
         if breached == 0 {
@@ -434,6 +477,8 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floors: &SketchFloors, patch: 
         pits = next.into_iter().map(|c| (h.data[c], c, 0.0)).collect();
         pits.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
     }
+    (stats.cells_lowered, stats.cells_lowered_over_10m) = (changed.lowered.count, changed.lowered_over_10m.count);
+    stats.cells_raised = changed.raised.count;
     tracing::info!(?stats, "depressions breached");
     stats
 }

@@ -440,3 +440,26 @@ fn a_flood_s_depth_does_not_depend_on_the_floods_before_it() {
     }
     assert!(deep > 5, "{deep} pits deeper than {MIN_DEPTH_M} m");
 }
+
+#[test]
+fn each_cell_changed_is_counted_once_however_many_gullies_cross_it() {
+    // a slope of 0.5 m a cell roughened by ±20 m of hashed noise: hundreds of pits a
+    // few cells apart, whose gullies cross each other
+    let (w, hh) = (80usize, 80usize);
+    let noise = |i: usize| {
+        let k = (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 40;
+        (k % 4001) as f32 / 100.0 - 20.0
+    };
+    let mut h = Grid::from_vec(w, hh, (0..w * hh).map(|i| 0.5 * (i % w) as f32 + noise(i)).collect());
+    let before = h.clone();
+    let keep = vec![f32::NEG_INFINITY; h.data.len()];
+    let s = breach_depressions(&mut h, &floors(&keep), 32, Hybrid::FillThenBreach);
+    let lowered = h.data.iter().zip(&before.data).filter(|(a, b)| a < b).count();
+    let raised = h.data.iter().zip(&before.data).filter(|(a, b)| a > b).count();
+    assert!(s.breached > 20 && lowered > 0, "{s:?}");
+    // a cell raised by a filled bottom and then cut (or cut, then raised) ends on one
+    // side of where it was but was changed both ways: only those may differ
+    assert!(s.cells_lowered >= lowered && s.cells_lowered <= lowered + s.cells_raised, "{lowered} lowered: {s:?}");
+    assert!(s.cells_raised >= raised && s.cells_raised <= raised + s.cells_lowered, "{raised} raised: {s:?}");
+    assert!(s.cells_lowered_over_10m <= s.cells_lowered, "{s:?}");
+}
