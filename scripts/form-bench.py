@@ -28,6 +28,12 @@ Pairs (ten by default; `--pairs` picks some by name, massif-8192 only so):
                                     below 0.99 (a target carve, reverted in 25f618a,
                                     took it from 0.9995 to 0.875 and 0.823)
 
+Each traced pair gets a `dem` row too: the DEM its sketch was traced from, resized to
+the sketch and measured by the first binary's `evaluate` against the sketch and the
+pair's library. It is what real terrain scores on such a sketch: alaska's own ridge and
+valley adherence on traced-alaska-1024 is 0.50 and 0.70 (at 3b5f876), where the sketch
+fit takes the synthesis to 0.99, digging and raising up to 2 km to do so (`fit_max`).
+
 usage: scripts/form-bench.py OUT_DIR BINARY[@--flag...] [BINARY ...] [--pairs a,b] [--seed N]
 (a binary is named by its folder; `@--no-sketch-fit` after it adds that flag to its jobs)
 needs numpy, pillow and tifffile (scripts/test.sh installs them in target/pyenv:
@@ -211,17 +217,26 @@ def traced(dem_file, n, share=0.012, shortest=24):
     return out
 
 
+# the traced pairs' DEMs and sizes: each such pair gets a `dem` row, the DEM itself
+# (resized to the sketch) measured against its sketch and library
+TRACED_FROM = {
+    "traced-alaska-1024": ("alaska.png", 1024),
+    "traced-rockies-1024": ("rockies.png", 1024),
+    "traced-colorado-4096": ("colorado.png", 4096),
+    "traced-norway-1024": ("norway.png", 1024),
+}
+
 SKETCHES = {
-    "traced-alaska-1024": (lambda: traced("alaska.png", 1024), "no-alaska"),
-    "traced-rockies-1024": (lambda: traced("rockies.png", 1024), "even"),
+    "traced-alaska-1024": (lambda: traced(*TRACED_FROM["traced-alaska-1024"]), "no-alaska"),
+    "traced-rockies-1024": (lambda: traced(*TRACED_FROM["traced-rockies-1024"]), "even"),
     "mixed-1024": ("mixed-1024.png", "all"),
     "lambda-valleys-1024": ("lambda-valleys-1024.png", "odd"),
     "sparse-1024": (lambda: sparse(1024), "even"),
     "small-range-512": ("small-range-512.png", "all"),
     "massif-4096": (lambda: massif(4096), "all"),
-    "traced-colorado-4096": (lambda: traced("colorado.png", 4096), "no-colorado"),
+    "traced-colorado-4096": (lambda: traced(*TRACED_FROM["traced-colorado-4096"]), "no-colorado"),
     "sparse-4096": (lambda: sparse(4096), "odd"),
-    "traced-norway-1024": (lambda: traced("norway.png", 1024), "no-norway"),
+    "traced-norway-1024": (lambda: traced(*TRACED_FROM["traced-norway-1024"]), "no-norway"),
     "massif-8192": (lambda: massif(8192), "all"),
 }
 
@@ -259,6 +274,29 @@ def run(spec, tag, out, name, seed):
     rep = json.load(open(report))
     rep["_wall_s"] = time.time() - t
     return rep
+
+
+def dem_report(spec, out, name):
+    """The traced pair's DEM itself, resized to the sketch (bilinear, metres), measured
+    by `BINARY evaluate` against the sketch and the pair's library: what the terrain the
+    sketch was traced from scores (adherence, drainage, ...), as a report for `figures`."""
+    import tifffile
+    binary = spec.split("@")[0]
+    dem, n = TRACED_FROM[name]
+    sk, lib = sketch_file(out, name)
+    lib_dir = library(out, lib, LIBRARIES[lib])
+    _, rows = dem_rows()
+    unit = next(r.split(",")[4] for r in rows if r.split(",")[0] == dem)
+    scale = {"feet": 0.3048, "metres": 1.0, "meters": 1.0}[unit]
+    h = np.asarray(Image.open(os.path.join(DEMS, dem)).convert("F").resize((n, n), Image.BILINEAR), np.float32) * scale
+    path = os.path.join(out, "runs", "dem", name + ".tif")
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    tifffile.imwrite(path, h)
+    cmd = [binary, "evaluate", "--terrain", path, "--sketch", sk, "--exemplars", lib_dir, "--json"]
+    r = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    if r.returncode != 0:
+        sys.exit(f"{binary} evaluate failed on {name}'s DEM:\n{r.stderr[-2000:]}")
+    return {"evaluation": json.loads(r.stdout), "width": n, "height": n, "_wall_s": None}
 
 
 def get(d, *path, default=None):
@@ -343,6 +381,8 @@ def main():
             f = figures(run(b, tag, a.out, n, a.seed))
             rows.append((n, tag, f))
             print(json.dumps({"pair": n, "binary": tag, **f}), file=sys.stderr, flush=True)
+        if n in TRACED_FROM:
+            rows.append((n, "dem", figures(dem_report(a.binaries[0], a.out, n))))
     cols = list(rows[0][2])
     print(f"{'pair':<22} {'bin':<8} " + " ".join(f"{c:>9}" for c in cols))
     for n, tag, f in rows:
