@@ -10,6 +10,15 @@ use ridgeline_terrain::grid::Heightfield;
 /// A cut deeper than this (metres) is counted apart in `DrainageStats`.
 pub const BIG_CUT_M: f32 = 10.0;
 
+/// The narrowest half-widths of a level's breach gullies, cells: anywhere (`free`),
+/// and beside a held valley side, which narrows a deep gully no further than `held`
+/// (see [`held_radius`]).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct GullyRadii {
+    pub free: usize,
+    pub held: usize,
+}
+
 /// The widest a gully's half-width grows, cells.
 pub const MAX_GULLY_RADIUS: usize = 24;
 
@@ -46,9 +55,9 @@ pub(super) fn wall_slope(h: &Heightfield) -> f32 {
 /// below its floor: the bump `drop (1 − d²/(R+1)²)²` stays within a held cell's room
 /// `h − floor` where `R + 1 ≤ d / √(1 − √(room / drop))`. A narrower gully where a
 /// valley's side is held, rather than a wall capped cell by cell (that left kilometre
-/// cliffs beside the held cells); never under `min_r` (a cut one cell wide
-/// is a trench: there the floor gives way). (Narrowing to no less than half of `r`
-/// instead kept 0.975 of a traced sketch's valley cells fitting, against 0.984.)
+/// cliffs beside the held cells); never narrowed under `min_r` (a deep cut one cell
+/// wide is a trench: there the floor gives way). (Narrowing to no less than half of
+/// `r` instead kept 0.975 of a traced sketch's valley cells fitting, against 0.984.)
 /// Breaches that hold no floors keep `r`.
 pub(super) fn held_radius(h: &Heightfield, topo: Topology, floor: Floors, at: (i64, i64), drop: f32, r: i64, min_r: i64) -> i64 {
     if !floor.held {
@@ -74,7 +83,7 @@ pub(super) fn held_radius(h: &Heightfield, topo: Topology, floor: Floors, at: (i
             best = best.min(allowed.floor() as i64);
         }
     }
-    best.max(min_r)
+    best.max(min_r).min(r)
 }
 
 /// The cut along a breach path, each cell once with how far it comes down (applied by
@@ -83,8 +92,8 @@ pub(super) fn held_radius(h: &Heightfield, topo: Topology, floor: Floors, at: (i
 /// where it is a border cell above the line: water leaves there) by its drop `d`, and
 /// the cut at a cell is the largest `d · K(r / R)` over the path cells, `K` a smooth
 /// bump `(1 − u²)²` and `R` the half-width at which the cut's walls are no steeper
-/// than `wall` (at least `min_r`, the level's narrowest, at most
-/// [`MAX_GULLY_RADIUS`]). The cut is subtracted, so the terrain's own relief stays on
+/// than `wall` (at least `radii.free`, the level's narrowest, at most
+/// [`MAX_GULLY_RADIUS`]; beside a held side no narrower than `radii.held`). The cut is subtracted, so the terrain's own relief stays on
 /// the gully's floor and walls: a valley through the sill, not a trench with a smooth
 /// floor. A crest (`floor` infinite) is never lowered; near a held floor the gully
 /// narrows ([`held_radius`]).
@@ -94,7 +103,7 @@ pub(super) fn gully(
     path: &[usize],
     floor: Floors,
     wall: f32,
-    min_r: usize,
+    radii: GullyRadii,
 ) -> Vec<(usize, f32)> {
     let (w, hh) = (h.width, h.height);
     let torus = topo.wrap;
@@ -119,8 +128,8 @@ pub(super) fn gully(
             let line = (z - FALL_PER_CELL * i as f32).min(z + (end.min(z) - z) * i as f32 / k);
             let drop = h.data[c] - line;
             (drop > 0.0).then(|| {
-                let r = ((drop / wall).ceil() as usize).clamp(min_r, MAX_GULLY_RADIUS) as i64;
-                (xy[i], drop, line, held_radius(h, topo, floor, xy[i], drop, r, min_r as i64))
+                let r = ((drop / wall).ceil() as usize).clamp(radii.free, MAX_GULLY_RADIUS) as i64;
+                (xy[i], drop, line, held_radius(h, topo, floor, xy[i], drop, r, radii.held as i64))
             })
         })
         .collect();

@@ -151,23 +151,42 @@ impl Floors<'_> {
     }
 }
 
-/// The narrowest half-width of a breach gully beside its path on the output level,
-/// cells (held sides are kept off a disc of it: `floors`). Most breaches drop less
-/// than this many times the wall's slope, so this half-width sets their width: at 3,
-/// the ring 3 cells out still came down by a fifth of the drop. At 2 against 3 (the
-/// coarse level's unchanged; seed 3, and the 4096² pairs of `coarse_level` with their
-/// seeds), the cells lowered fell 11–20% on every pair (sparse-1024 13.8 → 11.0%,
-/// mixed-1024 14.9 → 11.9%, traced-alaska-1024 19.3 → 16.2%, lambda-valleys-1024
-/// 17.5 → 14.6%, small-range-512 13.8 → 11.2%, traced-rockies-1024 19.0 → 16.0%,
-/// traced-norway-1024 18.5 → 16.5%, massif-4096 12.7 → 10.5%, rockies ×4 15.0 →
-/// 12.8%, mixed ×4 14.6 → 12.1%, sparse ×4 13.1 → 10.8%, the 8192² massif 14.7 →
-/// 12.4%) and those lowered by more than 10 m 7–13%; the sink and border shares
-/// stayed as they were on the 4096² and 8192² pairs (0.9994 of the 8192² massif
-/// draining to the border), valley adherence rose on the three traced sketches
-/// (0.982–0.983 → 0.988–0.990) and fell on none, the landform distance moved by at
-/// most 0.002, and the roughness ratio rose 0.02–0.21 (traced-alaska 1.21 → 1.42,
-/// traced-norway 0.62 → 0.72; inside the real DEMs' spread, 0.43–5.07).
+/// The narrowest half-width of an output-level breach gully beside a held valley
+/// side, cells (held sides are kept off a disc of it: `floors`): where the held cells
+/// narrow a deep gully, they narrow it no further. At 3, the ring 3 cells out still
+/// came down by a fifth of the drop. At 2 against 3, as the narrowest of every gully
+/// then (the coarse level's unchanged; seed 3, and the 4096² pairs of `coarse_level`
+/// with their seeds), the cells lowered fell 11–20% on every pair (sparse-1024 13.8 →
+/// 11.0%, mixed-1024 14.9 → 11.9%, traced-alaska-1024 19.3 → 16.2%,
+/// lambda-valleys-1024 17.5 → 14.6%, small-range-512 13.8 → 11.2%,
+/// traced-rockies-1024 19.0 → 16.0%, traced-norway-1024 18.5 → 16.5%, massif-4096
+/// 12.7 → 10.5%, rockies ×4 15.0 → 12.8%, mixed ×4 14.6 → 12.1%, sparse ×4 13.1 →
+/// 10.8%, the 8192² massif 14.7 → 12.4%; counted gully by gully, as the report then
+/// did) and those lowered by more than 10 m 7–13%; the sink and border shares stayed
+/// as they were on the 4096² and 8192² pairs (0.9994 of the 8192² massif draining to
+/// the border), valley adherence rose on the three traced sketches (0.982–0.983 →
+/// 0.988–0.990) and fell on none, the landform distance moved by at most 0.002, and
+/// the roughness ratio rose 0.02–0.21 (traced-alaska 1.21 → 1.42, traced-norway 0.62
+/// → 0.72; inside the real DEMs' spread, 0.43–5.07). At 1 here too, deep gullies
+/// beside held sides became slots three cells wide: the roughness ratio rose to 1.65
+/// on traced-alaska-1024 and 1.10 on traced-rockies-1024 (from 1.42 and 0.96).
 pub const OUTPUT_GULLY_RADIUS: usize = 2;
+
+/// The narrowest half-width of any output-level breach gully, cells: a cut shallower
+/// than the wall's slope (`carve::wall_slope`) needs no more than one cell each side
+/// to keep its walls within it, and widening it to [`OUTPUT_GULLY_RADIUS`] made an
+/// eighth to a quarter of the cells the conditioning lowered. At 1 against 2 (seed 3, cells counted
+/// once each): sparse-1024 10.2 → 7.7%, mixed-1024 11.2 → 8.6%, lambda-valleys-1024
+/// 13.4 → 10.9%, small-range-512 10.1 → 7.8%, traced-alaska-1024 14.8 → 12.8%,
+/// traced-rockies-1024 14.9 → 13.0%, traced-norway-1024 15.3 → 13.4%, massif-4096
+/// 9.5 → 7.0%, the 8192² massif (16 DEMs) 10.9 → 8.6% at seed 3 and 11.2 → 8.9% at
+/// seed 4; those lowered by more than 10 m 5–11% fewer; the roughness ratio moved by
+/// at most 0.021 (massif-4096 1.168 → 1.189, traced-alaska 1.419 → 1.408), the
+/// landform distance by at most 0.003, adherence by at most 0.001, and the sink and
+/// border shares stayed (massif-4096 0.011 → 0.012% and 0.9988; the 8192² massif
+/// 0.9995 and 0.9992 draining to the border, as before). A hillshade of
+/// sparse-1024's most changed 256², at 1:1 and 5:1, shows no difference.
+pub const OUTPUT_FREE_GULLY_RADIUS: usize = 1;
 
 /// The narrowest half-width of a breach gully on a coarse level, cells: a coarse
 /// cell is several of the output's, and its gullies are the valleys the output level

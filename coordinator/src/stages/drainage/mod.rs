@@ -58,8 +58,8 @@
 //! terrain, not a surface the terrain is clipped to: each path cell must come down onto
 //! the line by its drop, and the cells around it come down by that drop times
 //! `(1 − u²)²` over a half-width at which the gully's walls are no steeper than
-//! [`WALL_PER_MEDIAN_SLOPE`] times the terrain's median slope, never below the line
-//! they drain to. So the terrain's own relief stays on the gully's floor and walls — a
+//! [`WALL_PER_MEDIAN_SLOPE`] times the terrain's median slope (one cell each side at
+//! least, [`OUTPUT_FREE_GULLY_RADIUS`]), never below the line they drain to. So the terrain's own relief stays on the gully's floor and walls — a
 //! valley through the sill. (Clipping to a smooth gully surface instead gave every cut
 //! a smooth floor and a kink at its rim: the roughness ratio, power at 2–6 cells over
 //! 8–32, rose from 1.03 to 1.6 on a 512² sketch; subtracting the bump without the floor
@@ -104,12 +104,12 @@ mod topology;
 
 use crate::solvers::hydrology::SINK_DEPTH_M;
 use crate::stages::sketch::SketchFeatures;
-use carve::{carve, gully, wall_slope};
+use carve::{carve, gully, wall_slope, GullyRadii};
 pub use carve::{BIG_CUT_M, MAX_GULLY_RADIUS, WALL_PER_MEDIAN_SLOPE};
 use fill::{fill_bottom, fill_from};
 pub use fill::{fill_cells, whole_fill_cells};
 use floors::Floors;
-pub use floors::{sketch_floors, SketchFloors, COARSE_GULLY_RADIUS, OUTPUT_GULLY_RADIUS};
+pub use floors::{sketch_floors, SketchFloors, COARSE_GULLY_RADIUS, OUTPUT_FREE_GULLY_RADIUS, OUTPUT_GULLY_RADIUS};
 use ridgeline_terrain::grid::Heightfield;
 pub use search::MIN_DEPTH_M;
 use search::{breach_path, cells_without_way_down, has_way_down, local_depth, pits, Limits, Miss, Scratch};
@@ -163,12 +163,13 @@ impl Hybrid {
         self == Hybrid::FillThenBreach
     }
 
-    /// The narrowest half-width of a breach gully ([`OUTPUT_GULLY_RADIUS`] on the
-    /// output level, [`COARSE_GULLY_RADIUS`] on a coarse one).
-    fn gully_radius(self) -> usize {
+    /// The narrowest half-widths of a breach gully: on the output level
+    /// [`OUTPUT_FREE_GULLY_RADIUS`], and [`OUTPUT_GULLY_RADIUS`] beside a held side;
+    /// on a coarse one [`COARSE_GULLY_RADIUS`] everywhere.
+    fn gully_radii(self) -> GullyRadii {
         match self {
-            Hybrid::FillThenBreach => OUTPUT_GULLY_RADIUS,
-            Hybrid::BreachOrFill => COARSE_GULLY_RADIUS,
+            Hybrid::FillThenBreach => GullyRadii { free: OUTPUT_FREE_GULLY_RADIUS, held: OUTPUT_GULLY_RADIUS },
+            Hybrid::BreachOrFill => GullyRadii { free: COARSE_GULLY_RADIUS, held: COARSE_GULLY_RADIUS },
         }
     }
 }
@@ -403,7 +404,7 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floors: &SketchFloors, patch: 
                 (p, None) => (p, None),
             };
             let steps = path.as_ref().map_or(0, |p| p.0.len());
-            let mut cut = path.map(|(path, floor)| gully(h, topo, &path, floor, wall, hybrid.gully_radius()));
+            let mut cut = path.map(|(path, floor)| gully(h, topo, &path, floor, wall, hybrid.gully_radii()));
             // a trench (a long breach, cutting deep somewhere along it) from a small
             // filled bottom: the depression filled from its pit, other basins behind
             // its sill with it, up to 16 and 256 times as many cells and breached from
@@ -424,7 +425,7 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floors: &SketchFloors, patch: 
                         true => Some((f.volume, None)),
                         // a search that would cut more than the best so far gives up
                         false => search_below(h, f.pit, (best.0 - f.volume).max(0.0) as f32).map(|(p, floor)| {
-                            let c = gully(h, topo, &p, floor, wall, hybrid.gully_radius());
+                            let c = gully(h, topo, &p, floor, wall, hybrid.gully_radii());
                             (f.volume + cut_volume(&c), Some(c))
                         }),
                     };

@@ -463,3 +463,31 @@ fn each_cell_changed_is_counted_once_however_many_gullies_cross_it() {
     assert!(s.cells_raised >= raised && s.cells_raised <= raised + s.cells_lowered, "{raised} raised: {s:?}");
     assert!(s.cells_lowered_over_10m <= s.cells_lowered, "{s:?}");
 }
+
+#[test]
+fn a_cut_shallower_than_the_wall_s_slope_is_a_gully_three_cells_wide() {
+    // a steep valley (40 m a cell up each side, so walls may be about 80 m a cell)
+    // falling 0.8 m a cell to the left border, dammed 30 m high at x = 50: the lake
+    // behind is one cell wide and 37 long, and the cut through the dam is shallower
+    // than the walls may be steep
+    let (w, hh) = (120usize, 60usize);
+    let mut h = Grid::from_vec(
+        w,
+        hh,
+        (0..w * hh)
+            .map(|i| {
+                let (x, y) = ((i % w) as f32, (i / w) as f32);
+                let dam = if (x - 50.0).abs() < 2.0 { 30.0 } else { 0.0 };
+                200.0 + 0.8 * x + 40.0 * (y - 30.0).abs() + dam
+            })
+            .collect(),
+    );
+    let before = h.clone();
+    let keep = vec![f32::NEG_INFINITY; h.data.len()];
+    let s = breach_depressions(&mut h, &floors(&keep), 32, Hybrid::FillThenBreach);
+    assert_eq!((s.breached, s.left), (1, 0), "{s:?}");
+    assert_eq!(drainage_shares(&h, MIN_DEPTH_M).sink_share, 0.0, "nothing closed is left");
+    // the gully runs along the valley's floor (y = 30), one cell each side of it
+    let rows: Vec<usize> = (0..w * hh).filter(|&i| h.data[i] < before.data[i]).map(|i| i / w).collect();
+    assert!(!rows.is_empty() && rows.iter().all(|&y| y.abs_diff(30) <= 1), "rows lowered: {rows:?}");
+}
