@@ -93,9 +93,9 @@ pub(super) fn held_radius(h: &Heightfield, topo: Topology, floor: Floors, at: (i
 /// the cut at a cell is the largest `d · K(r / R)` over the path cells, `K` a smooth
 /// bump `(1 − u²)²` and `R` the half-width at which the cut's walls are no steeper
 /// than `wall` (at least `radii.free`, the level's narrowest, at most
-/// [`MAX_GULLY_RADIUS`]; beside a held side no narrower than `radii.held`). The cut is subtracted, so the terrain's own relief stays on
-/// the gully's floor and walls: a valley through the sill, not a trench with a smooth
-/// floor. A crest (`floor` infinite) is never lowered; near a held floor the gully
+/// [`MAX_GULLY_RADIUS`]; beside a held side no narrower than `radii.held`). The cut
+/// is subtracted, so the terrain's own relief stays on the gully's floor and walls: a
+/// valley through the sill, not a trench with a smooth floor. A crest (`floor` infinite) is never lowered; near a held floor the gully
 /// narrows ([`held_radius`]).
 pub(super) fn gully(
     h: &Heightfield,

@@ -175,8 +175,8 @@ pub const OUTPUT_GULLY_RADIUS: usize = 2;
 /// The narrowest half-width of any output-level breach gully, cells: a cut shallower
 /// than the wall's slope (`carve::wall_slope`) needs no more than one cell each side
 /// to keep its walls within it, and widening it to [`OUTPUT_GULLY_RADIUS`] made an
-/// eighth to a quarter of the cells the conditioning lowered. At 1 against 2 (seed 3, cells counted
-/// once each): sparse-1024 10.2 → 7.7%, mixed-1024 11.2 → 8.6%, lambda-valleys-1024
+/// eighth to a quarter of the cells the conditioning lowered. At 1 against 2 (seed 3,
+/// cells counted once each): sparse-1024 10.2 → 7.7%, mixed-1024 11.2 → 8.6%, lambda-valleys-1024
 /// 13.4 → 10.9%, small-range-512 10.1 → 7.8%, traced-alaska-1024 14.8 → 12.8%,
 /// traced-rockies-1024 14.9 → 13.0%, traced-norway-1024 15.3 → 13.4%, massif-4096
 /// 9.5 → 7.0%, the 8192² massif (16 DEMs) 10.9 → 8.6% at seed 3 and 11.2 → 8.9% at

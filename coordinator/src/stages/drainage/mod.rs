@@ -59,8 +59,9 @@
 //! the line by its drop, and the cells around it come down by that drop times
 //! `(1 − u²)²` over a half-width at which the gully's walls are no steeper than
 //! [`WALL_PER_MEDIAN_SLOPE`] times the terrain's median slope (one cell each side at
-//! least, [`OUTPUT_FREE_GULLY_RADIUS`]), never below the line they drain to. So the terrain's own relief stays on the gully's floor and walls — a
-//! valley through the sill. (Clipping to a smooth gully surface instead gave every cut
+//! least, [`OUTPUT_FREE_GULLY_RADIUS`]), never below the line they drain to. So the
+//! terrain's own relief stays on the gully's floor and walls — a valley through the
+//! sill. (Clipping to a smooth gully surface instead gave every cut
 //! a smooth floor and a kink at its rim: the roughness ratio, power at 2–6 cells over
 //! 8–32, rose from 1.03 to 1.6 on a 512² sketch; subtracting the bump without the floor
 //! at the line made new pits beside the path, 2,566 in the second pass against 642.)
@@ -218,7 +219,9 @@ struct Changed {
     raised: CellMarks,
 }
 
-/// A set of a grid's cells that only grows, and how many it holds.
+/// A set of a grid's cells that only grows, and how many it holds: a bit a cell and
+/// nothing else (`search`'s `CellSet` also lists its cells so a search can clear it
+/// cheaply; these sets are never cleared, and a list would hold a tenth of the canvas).
 struct CellMarks {
     bits: Vec<u64>,
     count: usize,
