@@ -5,9 +5,31 @@
 //! (the usual hydrological conditioning) would leave flat lake beds. Instead each
 //! depression is *breached* along its least-cost path (Lindsay 2016): from the
 //! depression's deepest cell, a search over the terrain (Dijkstra, the cost of a step
-//! the height the cell must lose to lie on a line descending from the pit) finds the
-//! cheapest way down to lower ground or the border. The path follows the terrain's own
-//! low ground (a col between two valleys), so it is short and no straight trench.
+//! the height the cell must lose to lie on a line descending from the pit, times the
+//! step's length and the cell's low-ground weight: [`low_ground`]) finds the cheapest
+//! way down to lower ground or the border. The path follows the terrain's own low
+//! ground (a col between two valleys, a gully through a sill), so it is short and no
+//! straight trench.
+//!
+//! **The low-ground weight.** Unweighted, a step cost its cell's cut alone: a diagonal
+//! step as little as an orthogonal one, and a cut hundreds of metres deep nearly the
+//! same on every cell of a sill, so deep breaches ran straight, at 45°. On four 1024²
+//! pairs of issue 25 (seed 3, an instrumented build that logged each path), the
+//! breaches with a stretch of 30 cells or more cut by more than 20 m lying within ¾
+//! of a cell of a straight line went from 15 to 7 (traced-alaska), 18 to 2
+//! (traced-rockies), 8 to 0 (sparse) and 5 to 5 (mixed-1024; of 20 cells or more:
+//! 43 → 29, 55 → 26, 23 → 8, 21 → 18). On the ten pairs of `scripts/form-bench.py`
+//! the cells lowered fell 0.1–0.4 points (traced-norway 13.4 → 13.0%, sparse-1024
+//! 7.70 → 7.53%, massif-4096 7.28 → 7.08%, sparse-4096 8.76 → 8.49%), and on the
+//! 8192² massif (16 shared DEMs) 8.63 → 8.41% at seed 3 and 8.87 → 8.64% at seed 4;
+//! traced-alaska's sink share halved (0.056 → 0.028%, 99.3 → 99.6% draining to the
+//! border), and elsewhere the sink and border shares stayed; valley adherence moved
+//! by at most 0.003 (traced-rockies 0.989 → 0.988; traced-alaska 0.989 → 0.992, the
+//! 8192² massif 0.998 → 1.000 and 0.993 → 0.994), the roughness ratio by at most
+//! 0.025 (traced-rockies 0.962 → 0.937), and the stage took 15–30% longer (its
+//! searches reach further where octile steps cost more: traced-colorado-4096 9.7 →
+//! 12.6 s of a 52.9 → 57.0 s job, the 8192² massif 19.6 → 23.3 s of 142.6 → 148.7 s).
+//! A coarse level's step still costs its cut alone (see `breach_on`).
 //!
 //! **Fill, then breach** (the hybrid of the same paper). In every pass each
 //! depression's bottom, at most [`fill_cells`] cells about its pit, is filled first
@@ -100,6 +122,7 @@
 mod carve;
 mod fill;
 mod floors;
+mod low_ground;
 mod search;
 mod topology;
 
@@ -111,6 +134,7 @@ use fill::{fill_bottom, fill_from};
 pub use fill::{fill_cells, whole_fill_cells};
 use floors::Floors;
 pub use floors::{sketch_floors, SketchFloors, COARSE_GULLY_RADIUS, OUTPUT_FREE_GULLY_RADIUS, OUTPUT_GULLY_RADIUS};
+use low_ground::LowGround;
 use ridgeline_terrain::grid::Heightfield;
 pub use search::MIN_DEPTH_M;
 use search::{breach_path, cells_without_way_down, has_way_down, local_depth, pits, Limits, Miss, Scratch};
@@ -309,6 +333,16 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floors: &SketchFloors, patch: 
     let scratch = std::cell::RefCell::new(Scratch::default());
     stats.depressions = pits.len();
     stats.cells_sunk_before = water.iter().zip(&h.data).filter(|(l, v)| v.is_finite() && *l - *v > SINK_DEPTH_M).count();
+    // made once: a later pass's paths cross the gullies cut before at the line's
+    // level, where a step costs next to nothing whatever its weight (made again each
+    // pass, the stage took a tenth longer on a 4096² sketch for the same cut); a
+    // coarse level's step costs its cut alone, as it did: weighted there too, the
+    // 8192² massif sketch (16 shared DEMs, seed 3) drained 0.884 of its cells to the
+    // border against 0.9995, and its valley adherence fell 0.998 -> 0.993
+    let ground = match hybrid {
+        Hybrid::FillThenBreach => LowGround::of(h, wall / WALL_PER_MEDIAN_SLOPE),
+        Hybrid::BreachOrFill => LowGround::cut_only(),
+    };
     for pass in 0..PASSES {
         let started = std::time::Instant::now();
         let mut breached = 0;
@@ -385,7 +419,7 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floors: &SketchFloors, patch: 
                             return None;
                         }
                         let limits = Limits { reach: now.reach, max_cut, max_cost };
-                        match breach_path(h, topo, pit, floor, limits, &mut scratch.borrow_mut()) {
+                        match breach_path(h, topo, pit, floor, &ground, limits, &mut scratch.borrow_mut()) {
                             Ok(path) => Some((path, floor)),
                             Err(miss) => {
                                 missed.push((now, miss));

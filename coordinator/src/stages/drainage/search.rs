@@ -1,8 +1,10 @@
 //! Finding what to breach and where: the depressions' pits and depths, and each
 //! one's least-cost way out (Lindsay 2016's breach path, a Dijkstra search whose step
-//! costs the height a cell must lose to lie on a line descending from the pit).
+//! costs the height a cell must lose to lie on a line descending from the pit, times
+//! the step's length and the cell's low-ground weight: `low_ground`).
 
 use super::floors::{max_held_drop, Floors};
+use super::low_ground::LowGround;
 use super::topology::Topology;
 use crate::solvers::hydrology::D8;
 use crate::solvers::tiled_flood::water_levels_in_parallel;
@@ -192,7 +194,8 @@ pub(super) fn cells_without_way_down(h: &Heightfield, topo: Topology) -> Vec<usi
 
 /// How far a breach search may go: `reach` cells from its pit, cutting no cell more
 /// than `max_cut` below its height, costing no more than `max_cost` (the sum of its
-/// cells' cuts).
+/// steps' costs: each cell's cut times the step's length and the cell's low-ground
+/// weight, metres times cells on average ground).
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Limits {
     pub(super) reach: usize,
@@ -237,12 +240,14 @@ impl Miss {
 /// The least-cost path from `pit` to a cell lower than the line falling from it (or to
 /// the border) within the `limits`, never through a cell that may not be cut (`floor`
 /// infinite), never cutting one below its floor: the cells from the pit to that cell,
-/// or why there is none.
+/// or why there is none. A step costs its cell's cut times its length and the cell's
+/// weight in `ground`.
 pub(super) fn breach_path(
     h: &Heightfield,
     topo: Topology,
     pit: usize,
     floor: Floors,
+    ground: &LowGround,
     limits: Limits,
     scratch: &mut Scratch,
 ) -> Result<Vec<usize>, Miss> {
@@ -279,8 +284,10 @@ pub(super) fn breach_path(
             path.reverse();
             return Ok(path);
         }
-        for j in topo.neighbours(c) {
-            let (dx, dy) = topo.offset(pit, j);
+        // (the offset from the pit of each cell around c, found from c's)
+        let from_pit = topo.offset(pit, c);
+        for (j, step) in topo.steps(c) {
+            let (dx, dy) = topo.offset_beyond(from_pit, step);
             if floor.at(j) == f32::INFINITY || !h.data[j].is_finite() {
                 continue;
             }
@@ -305,8 +312,9 @@ pub(super) fn breach_path(
                 miss.spare = true;
                 continue;
             }
-            // the height the cell must lose, and a little per step so shorter paths win ties
-            let step = cut + 1e-3;
+            // the height the cell must lose, and a little per step so shorter paths win
+            // ties; times the step's length and the cell's low-ground weight
+            let step = (cut + 1e-3) * ground.per_metre(j, step.0 != 0 && step.1 != 0);
             let nc = cost + step;
             if best.get(&j).is_none_or(|&(old, _, _)| nc < old) {
                 best.insert(j, (nc, steps + 1, c));

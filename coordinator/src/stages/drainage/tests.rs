@@ -382,11 +382,12 @@ fn a_search_that_lifts_only_restrictions_a_missed_one_never_met_finds_nothing_ei
                 .map(|(held, spare, reach)| Restrictions { held, spare, reach })
                 .to_vec();
         let mut scratch = Scratch::default();
+        let ground = super::low_ground::LowGround::of(&h, super::carve::wall_slope(&h) / WALL_PER_MEDIAN_SLOPE);
         for &pit in &pits {
             for max_cost in [5.0, 40.0, 400.0, f32::INFINITY] {
                 let run = |r: Restrictions, scratch: &mut Scratch| {
                     let floor = Floors { floor: &floor, held: r.held, spare: r.spare, near: &near };
-                    breach_path(&h, topo, pit, floor, Limits { reach: r.reach, max_cut: 80.0, max_cost }, scratch)
+                    breach_path(&h, topo, pit, floor, &ground, Limits { reach: r.reach, max_cut: 80.0, max_cost }, scratch)
                 };
                 let results: Vec<Result<Vec<usize>, Miss>> = configs.iter().map(|&r| run(r, &mut scratch)).collect();
                 for (i, old) in configs.iter().enumerate() {

@@ -40,24 +40,45 @@ impl Topology {
 
     /// The cells around `c` (eight, fewer at a rectangle's border), in [`D8`]'s order.
     pub(super) fn neighbours(self, c: usize) -> impl Iterator<Item = usize> {
+        self.steps(c).map(|(j, _)| j)
+    }
+
+    /// The cells around `c`, as [`Topology::neighbours`], each with the step to it
+    /// (an entry of [`D8`]; the diagonal ones are those with both parts non-zero).
+    pub(super) fn steps(self, c: usize) -> impl Iterator<Item = (usize, (i64, i64))> {
         let (x, y) = (c % self.w, c / self.w);
-        let mut cells = [0usize; 8];
+        let mut cells = [(0usize, (0i64, 0i64)); 8];
         let mut n = 0;
         if x > 0 && y > 0 && x + 1 < self.w && y + 1 < self.h {
             // away from the border (almost every cell): no wrapping or bounds to look at
             for (cell, &(dx, dy)) in cells.iter_mut().zip(&D8) {
-                *cell = c.wrapping_add_signed(dy as isize * self.w as isize + dx as isize);
+                *cell = (c.wrapping_add_signed(dy as isize * self.w as isize + dx as isize), (dx, dy));
             }
             n = 8;
         } else {
             for &(dx, dy) in &D8 {
                 if let Some(j) = self.at(x as i64 + dx, y as i64 + dy) {
-                    cells[n] = j;
+                    cells[n] = (j, (dx, dy));
                     n += 1;
                 }
             }
         }
         cells.into_iter().take(n)
+    }
+
+    /// The offset from a cell to the cell one `step` beyond `b`, given `ab` the offset
+    /// from it to `b` ([`Topology::offset`]): the shorter way round on a torus, as
+    /// `offset` gives it, without dividing by the grid's width.
+    pub(super) fn offset_beyond(self, ab: (i64, i64), step: (i64, i64)) -> (i64, i64) {
+        let round = |d: i64, n: usize| {
+            let n = n as i64;
+            if self.wrap && 2 * d.abs() > n {
+                d - d.signum() * n
+            } else {
+                d
+            }
+        };
+        (round(ab.0 + step.0, self.w), round(ab.1 + step.1, self.h))
     }
 
     /// The offset from `a` to `b`, the shorter way round on a torus.
