@@ -7,7 +7,9 @@ the sources' weighted share, border drainage, elevation range against the source
 landform distance, flat share, spectral slope, roughness, seams, relief contrast
 against the sources' (where the binary reports it), the share closed before the
 conditioning (`sunk_pre%`, where the binary reports it), the conditioning stage's time
-and cuts, total time and peak memory.
+and cuts (`straight`: the breaches with a straight stretch of half a patch or more cut
+by more than 10 m, `str_max` the longest such stretch in cells, where the binary
+reports them), total time and peak memory.
 
 Pairs (ten by default; `--pairs` picks some by name, massif-8192 only so):
   traced-alaska-1024  / no-alaska   valleys and ridges traced from alaska's drainage
@@ -342,6 +344,8 @@ def figures(rep):
         "lowered%": per_cell("cells_lowered"),
         "cut10%": per_cell("cells_lowered_over_10m"),
         "raised%": per_cell("cells_raised"),
+        "straight": cond.get("straight_cuts"),
+        "str_max": cond.get("longest_straight_cut"),
         "fit_max": get(rep, "sketch_fit", "max_change"),
         "fit_s": stages.get("sketch_fit"),
         "cond_s": stages.get("conditioning"),

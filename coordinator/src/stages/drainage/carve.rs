@@ -97,14 +97,7 @@ pub(super) fn held_radius(h: &Heightfield, topo: Topology, floor: Floors, at: (i
 /// is subtracted, so the terrain's own relief stays on the gully's floor and walls: a
 /// valley through the sill, not a trench with a smooth floor. A crest (`floor` infinite) is never lowered; near a held floor the gully
 /// narrows ([`held_radius`]).
-pub(super) fn gully(
-    h: &Heightfield,
-    topo: Topology,
-    path: &[usize],
-    floor: Floors,
-    wall: f32,
-    radii: GullyRadii,
-) -> Vec<(usize, f32)> {
+pub(super) fn gully(h: &Heightfield, topo: Topology, path: &[usize], floor: Floors, wall: f32, radii: GullyRadii) -> Cut {
     let (w, hh) = (h.width, h.height);
     let torus = topo.wrap;
     let (z, end) = (h.data[path[0]], h.data[path[path.len() - 1]]);
@@ -119,22 +112,24 @@ pub(super) fn gully(
         xy.push(at);
     }
     let cell = |x: i64, y: i64| topo.at(x, y).expect("the box is clipped to a rectangle");
-    // each path cell's drop onto the line and the half-width of its cut
-    let drops: Vec<((i64, i64), f32, f32, i64)> = path
-        .iter()
-        .enumerate()
-        .skip(1)
-        .filter_map(|(i, &c)| {
+    // each path cell's line and drop onto it (none at the pit)
+    let lines: Vec<(f32, f32)> = (path.iter().enumerate())
+        .map(|(i, &c)| {
             let line = (z - FALL_PER_CELL * i as f32).min(z + (end.min(z) - z) * i as f32 / k);
-            let drop = h.data[c] - line;
-            (drop > 0.0).then(|| {
-                let r = ((drop / wall).ceil() as usize).clamp(radii.free, MAX_GULLY_RADIUS) as i64;
-                (xy[i], drop, line, held_radius(h, topo, floor, xy[i], drop, r, radii.held as i64))
-            })
+            (line, if i == 0 { 0.0 } else { h.data[c] - line })
+        })
+        .collect();
+    let straight = longest_straight_stretch(&xy, |i| lines[i].1 > BIG_CUT_M);
+    // the half-width of each path cell's cut
+    let drops: Vec<((i64, i64), f32, f32, i64)> = (lines.iter().enumerate())
+        .filter(|(_, &(_, drop))| drop > 0.0)
+        .map(|(i, &(line, drop))| {
+            let r = ((drop / wall).ceil() as usize).clamp(radii.free, MAX_GULLY_RADIUS) as i64;
+            (xy[i], drop, line, held_radius(h, topo, floor, xy[i], drop, r, radii.held as i64))
         })
         .collect();
     if drops.is_empty() {
-        return Vec::new();
+        return Cut { cells: Vec::new(), straight };
     }
     // the cut over the bounding box of the path and its gullies (clipped to the grid
     // on a rectangle)
@@ -176,7 +171,41 @@ pub(super) fn gully(
         by_cell.dedup_by_key(|e| e.0);
     }
     by_cell.retain(|&(j, _)| h.data[j].is_finite());
-    by_cell
+    Cut { cells: by_cell, straight }
+}
+
+/// A [`gully`]'s cut: each cell once with how far it comes down, and the longest
+/// straight stretch of its path cut by more than [`BIG_CUT_M`]
+/// ([`longest_straight_stretch`]), in cells.
+pub(super) struct Cut {
+    pub(super) cells: Vec<(usize, f32)>,
+    pub(super) straight: usize,
+}
+
+/// A path's stretches are measured up to this many cells (a longer one counts as
+/// this long; the measure's cost grows with its square).
+pub const STRAIGHT_STRETCH_CAP: usize = 256;
+
+/// The most consecutive cells of a path (`xy`, unbroken coordinates), each `deep`, that
+/// lie within ¾ of a cell of the straight line between the first and the last of
+/// them: how long a straight trench the cut along it makes (2 for a deep path cell
+/// and the next; a stair-stepped line at any angle counts whole).
+pub(super) fn longest_straight_stretch(xy: &[(i64, i64)], deep: impl Fn(usize) -> bool) -> usize {
+    let within = |a: (i64, i64), b: (i64, i64), p: (i64, i64)| {
+        let (dx, dy) = ((b.0 - a.0) as f64, (b.1 - a.1) as f64);
+        let cross = (p.0 - a.0) as f64 * dy - (p.1 - a.1) as f64 * dx;
+        cross.abs() <= 0.75 * dx.hypot(dy)
+    };
+    let mut best = 0;
+    for i in (0..xy.len()).filter(|&i| deep(i)) {
+        best = best.max(1);
+        let mut j = i + 1;
+        while j < xy.len() && j - i < STRAIGHT_STRETCH_CAP && deep(j) && (i + 1..j).all(|m| within(xy[i], xy[j], xy[m])) {
+            best = best.max(j - i + 1);
+            j += 1;
+        }
+    }
+    best
 }
 
 /// Lowers the terrain by a [`gully`]'s cut.

@@ -128,8 +128,8 @@ mod topology;
 
 use crate::solvers::hydrology::SINK_DEPTH_M;
 use crate::stages::sketch::SketchFeatures;
-use carve::{carve, gully, wall_slope, GullyRadii};
-pub use carve::{BIG_CUT_M, MAX_GULLY_RADIUS, WALL_PER_MEDIAN_SLOPE};
+use carve::{carve, gully, wall_slope, Cut, GullyRadii};
+pub use carve::{BIG_CUT_M, MAX_GULLY_RADIUS, STRAIGHT_STRETCH_CAP, WALL_PER_MEDIAN_SLOPE};
 use fill::{fill_bottom, fill_from};
 pub use fill::{fill_cells, whole_fill_cells};
 use floors::Floors;
@@ -200,8 +200,8 @@ impl Hybrid {
 }
 
 /// The sum of a cut's depths (metres times cells).
-fn cut_volume(cut: &[(usize, f32)]) -> f64 {
-    cut.iter().map(|e| f64::from(e.1)).sum()
+fn cut_volume(cut: &Cut) -> f64 {
+    cut.cells.iter().map(|e| f64::from(e.1)).sum()
 }
 
 /// What the conditioning did.
@@ -221,6 +221,12 @@ pub struct DrainageStats {
     /// Of the cells lowered, those cut by more than [`BIG_CUT_M`] in one gully: how
     /// much of the breach's work is more than a trim.
     pub cells_lowered_over_10m: usize,
+    /// The longest straight stretch of any breach path cut by more than
+    /// [`BIG_CUT_M`] (cells lying within ¾ of a cell of one line, at most
+    /// [`STRAIGHT_STRETCH_CAP`]), and the breaches with such a stretch of half a patch
+    /// or more: the straight trenches the conditioning cut.
+    pub longest_straight_cut: usize,
+    pub straight_cuts: usize,
     /// Depressions left: closed by a sketched ridge, or with no way down near enough.
     pub left: usize,
     /// Depressions whose bottom was filled before the breach ([`fill_cells`] cells at
@@ -274,9 +280,12 @@ impl DrainageStats {
         self.max_rise_m = self.max_rise_m.max(f.rise);
     }
 
-    /// Counts a gully's cut (cells and how far each came down).
-    fn keep_cut(&mut self, cut: &[(usize, f32)], changed: &mut Changed) {
-        for &(c, d) in cut {
+    /// Counts a gully's cut (cells and how far each came down, and its straight
+    /// stretch).
+    fn keep_cut(&mut self, cut: &Cut, patch: usize, changed: &mut Changed) {
+        self.longest_straight_cut = self.longest_straight_cut.max(cut.straight);
+        self.straight_cuts += usize::from(cut.straight >= patch / 2);
+        for &(c, d) in &cut.cells {
             changed.lowered.mark(c);
             if d > BIG_CUT_M {
                 changed.lowered_over_10m.mark(c);
@@ -446,9 +455,9 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floors: &SketchFloors, patch: 
             // filled bottom: the depression filled from its pit, other basins behind
             // its sill with it, up to 16 and 256 times as many cells and breached from
             // there; whichever changes the terrain least (metres times cells) is kept
-            let trench = |c: &Option<Vec<(usize, f32)>>| c.as_ref().is_some_and(|c| c.iter().any(|e| e.1 > TRENCH_DROP_M));
+            let trench = |c: &Option<Cut>| c.as_ref().is_some_and(|c| c.cells.iter().any(|e| e.1 > TRENCH_DROP_M));
             if hybrid == Hybrid::FillThenBreach && pass == 0 && steps > patch / 2 && trench(&cut) {
-                let mut best = (filled.as_ref().map_or(0.0, |f| f.volume) + cut.as_ref().map_or(0.0, |c| cut_volume(c)), None);
+                let mut best = (filled.as_ref().map_or(0.0, |f| f.volume) + cut.as_ref().map_or(0.0, cut_volume), None);
                 if let Some(f) = &filled {
                     f.undo(h);
                 }
@@ -488,7 +497,7 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floors: &SketchFloors, patch: 
                 stats.keep_fill(f, false, &mut changed);
             }
             // the whole fill where it raises less than the gully cuts
-            let lowered = cut.as_ref().map_or(f64::INFINITY, |c| cut_volume(c));
+            let lowered = cut.as_ref().map_or(f64::INFINITY, cut_volume);
             if whole.is_some_and(|v| v <= lowered) {
                 let f = fill_bottom(h, topo, first_pit, whole_fill_cells(patch), ceiling);
                 stats.keep_fill(&f, true, &mut changed);
@@ -496,8 +505,8 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floors: &SketchFloors, patch: 
             }
             match cut {
                 Some(cut) => {
-                    carve(h, &cut);
-                    stats.keep_cut(&cut, &mut changed);
+                    carve(h, &cut.cells);
+                    stats.keep_cut(&cut, patch, &mut changed);
                     breached += 1;
                 }
                 None => left += 1,

@@ -115,6 +115,38 @@ fn a_trench_gives_way_to_a_larger_filled_bottom() {
     floor[60 * 120 + 61] = 0.0;
     let s = breach_depressions(&mut h, &floors(&floor), 32, Hybrid::FillThenBreach);
     assert!(s.max_cut_m > 100.0 && s.cells_raised <= fill_cells(32), "{s:?}");
+    // a trench it is, straight across the even plateau and down its side to the
+    // border 59 cells away (nowhere nearer lies below the hole), and so reported
+    assert!(s.straight_cuts == 1 && (50..=60).contains(&s.longest_straight_cut), "{s:?}");
+}
+
+#[test]
+fn a_straight_stretch_is_measured_along_a_line_at_any_angle_and_only_where_cut_deep() {
+    use super::carve::longest_straight_stretch;
+    let all = |_: usize| true;
+    // a row, a diagonal, and a stair-stepped line at 1 in 3: each straight whole
+    let row: Vec<(i64, i64)> = (0..12).map(|x| (x, 5)).collect();
+    let diagonal: Vec<(i64, i64)> = (0..20).map(|k| (k, k)).collect();
+    let stairs: Vec<(i64, i64)> = (0..30).map(|x| (x, (x as f64 / 3.0).round() as i64)).collect();
+    assert_eq!(longest_straight_stretch(&row, all), 12);
+    assert_eq!(longest_straight_stretch(&diagonal, all), 20);
+    assert_eq!(longest_straight_stretch(&stairs, all), 30);
+    // an L: the longer arm and the corner
+    let l: Vec<(i64, i64)> = (0..10).map(|x| (x, 0)).chain((1..6).map(|y| (9, y))).collect();
+    assert_eq!(longest_straight_stretch(&l, all), 10);
+    // a circle of radius 20: no 4.2 km of it straight (a chord of 10 cells strays
+    // 0.63 of a cell from the arc)
+    let circle: Vec<(i64, i64)> = (0..126)
+        .map(|k| {
+            let t = k as f64 / 20.0;
+            ((20.0 * t.cos()).round() as i64, (20.0 * t.sin()).round() as i64)
+        })
+        .collect();
+    let c = longest_straight_stretch(&circle, all);
+    assert!((5..=13).contains(&c), "{c}");
+    // cells not cut deep break a stretch; none deep, none
+    assert_eq!(longest_straight_stretch(&row, |i| i != 4), 7);
+    assert_eq!(longest_straight_stretch(&row, |_| false), 0);
 }
 
 #[test]
