@@ -29,7 +29,12 @@
 //! 0.025 (traced-rockies 0.962 → 0.937), and the stage took 15–30% longer (its
 //! searches reach further where octile steps cost more: traced-colorado-4096 9.7 →
 //! 12.6 s of a 52.9 → 57.0 s job, the 8192² massif 19.6 → 23.3 s of 142.6 → 148.7 s).
-//! A coarse level's step still costs its cut alone (see `breach_on`).
+//! A coarse level's step still costs its cut alone (see `breach_on`). The report now
+//! counts the straight trenches (`DrainageStats::straight_cuts`: breaches with a
+//! straight stretch of half a patch or more cut by more than [`BIG_CUT_M`]); with the
+//! weights they went 10 → 4 on traced-alaska-1024, 15 → 3 traced-rockies-1024, 8 → 3
+//! lambda-valleys-1024, 139 → 39 massif-4096, 163 → 70 traced-colorado-4096, 150 →
+//! 56 sparse-4096, and 677 → 225 and 663 → 205 on the 8192² massif (seeds 3, 4).
 //!
 //! **Fill, then breach** (the hybrid of the same paper). In every pass each
 //! depression's bottom, at most [`fill_cells`] cells about its pit, is filled first
