@@ -70,27 +70,23 @@ impl Topology {
     /// from it to `b` ([`Topology::offset`]): the shorter way round on a torus, as
     /// `offset` gives it, without dividing by the grid's width.
     pub(super) fn offset_beyond(self, ab: (i64, i64), step: (i64, i64)) -> (i64, i64) {
-        let round = |d: i64, n: usize| {
-            let n = n as i64;
-            if self.wrap && 2 * d.abs() > n {
-                d - d.signum() * n
-            } else {
-                d
-            }
-        };
-        (round(ab.0 + step.0, self.w), round(ab.1 + step.1, self.h))
+        (self.shorter_way(ab.0 + step.0, self.w), self.shorter_way(ab.1 + step.1, self.h))
     }
 
     /// The offset from `a` to `b`, the shorter way round on a torus.
     pub(super) fn offset(self, a: usize, b: usize) -> (i64, i64) {
-        let d = |from: usize, to: usize, n: usize| {
-            let d = to as i64 - from as i64;
-            if self.wrap && 2 * d.abs() > n as i64 {
-                d - d.signum() * n as i64
-            } else {
-                d
-            }
-        };
+        let d = |from: usize, to: usize, n: usize| self.shorter_way(to as i64 - from as i64, n);
         (d(a % self.w, b % self.w, self.w), d(a / self.w, b / self.w, self.h))
+    }
+
+    /// An offset `d` (less than `n` either way) along an axis of `n` cells, taken the
+    /// shorter way round on a torus.
+    fn shorter_way(self, d: i64, n: usize) -> i64 {
+        let n = n as i64;
+        if self.wrap && 2 * d.abs() > n {
+            d - d.signum() * n
+        } else {
+            d
+        }
     }
 }
