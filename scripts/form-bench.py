@@ -9,7 +9,9 @@ against the sources' (where the binary reports it), the share closed before the
 conditioning (`sunk_pre%`, where the binary reports it), the conditioning stage's time
 and cuts (`straight`: the breaches with a straight stretch of half a patch or more cut
 by more than 10 m, `str_max` the longest such stretch in cells, where the binary
-reports them), total time and peak memory.
+reports them; `fillalt%`: the cells filling every depression flat would have raised
+instead, `vol/fill`: the conditioning's cut and raised volume over that fill's, where the
+binary reports them), total time and peak memory.
 
 Pairs (ten by default; `--pairs` picks some by name, massif-8192 only so):
   traced-alaska-1024  / no-alaska   valleys and ridges traced from alaska's drainage
@@ -344,6 +346,11 @@ def figures(rep):
         "lowered%": per_cell("cells_lowered"),
         "cut10%": per_cell("cells_lowered_over_10m"),
         "raised%": per_cell("cells_raised"),
+        # against filling every depression flat: the cells it would raise, and the
+        # conditioning's changes (cut and raised, metres times cells) over its rises
+        "fillalt%": per_cell("fill_alternative_cells"),
+        "vol/fill": None if not cond.get("fill_alternative_volume") else
+        (cond["volume_lowered"] + cond["volume_raised"]) / cond["fill_alternative_volume"],
         "straight": cond.get("straight_cuts"),
         "str_max": cond.get("longest_straight_cut"),
         "fit_max": get(rep, "sketch_fit", "max_change"),

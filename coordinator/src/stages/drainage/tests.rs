@@ -59,6 +59,19 @@ fn a_dammed_valley_is_breached_through_the_dam_with_few_cells() {
     }
     // (a raised cell the gully then crosses may end lower)
     assert!(raised <= s.cells_raised && s.cells_raised <= fill_cells(32), "{raised} cells raised: {s:?}");
+    // against filling the lake flat: the flooded cells and their depths, as counted
+    let level = water_levels(&before);
+    let flooded: Vec<f32> = level.iter().zip(&before.data).map(|(l, v)| l - v).filter(|&d| d > 0.0).collect();
+    assert_eq!(s.fill_alternative_cells, flooded.len(), "{s:?}");
+    let volume: f64 = flooded.iter().map(|&d| f64::from(d)).sum();
+    assert!((s.fill_alternative_volume - volume).abs() <= 1e-6 * volume, "{volume} against {s:?}");
+    // the volumes are what moved: every change is a fill's rise or a gully's cut
+    let net: f64 = h.data.iter().zip(&before.data).map(|(a, b)| f64::from(a - b)).sum();
+    assert!((net - (s.volume_raised - s.volume_lowered)).abs() < 0.5, "{net} moved: {s:?}");
+    // and a fraction of what the fill would have (86 cells against 275, 754 m·cells
+    // against 2,726): fewer cells, smaller changes
+    assert!(s.cells_lowered + s.cells_raised < s.fill_alternative_cells / 2, "{s:?}");
+    assert!(s.volume_lowered + s.volume_raised < s.fill_alternative_volume / 3.0, "{s:?}");
 }
 
 /// A hole 3 cells across and 600 m deep sunk in a plateau (tilted 0.01 m a cell)
