@@ -362,11 +362,12 @@ fn a_pit_s_own_flood_finds_its_depth() {
     let level = water_levels(&h);
     let topo = Topology::plain(&h);
     let (_, pit, depth) = pits(&h, topo).0[0];
-    assert!((local_depth(&h, topo, pit, 1 << 20, &mut Default::default()) - depth).abs() < 1e-3, "the dam's lake: {depth} m");
+    let (full, whole) = local_depth(&h, topo, pit, 1 << 20, &mut Default::default());
+    assert!(whole && (full - depth).abs() < 1e-3, "the dam's lake: {depth} m");
     assert!((level[pit] - h.data[pit] - depth).abs() < 1e-3);
-    // a flood stopped early has found at most the depth
-    let short = local_depth(&h, topo, pit, 20, &mut Default::default());
-    assert!(short <= depth + 1e-3 && short >= 0.0, "{short} vs {depth}");
+    // a flood stopped early has found at most the depth, and says so
+    let (short, whole) = local_depth(&h, topo, pit, 20, &mut Default::default());
+    assert!(!whole && short <= depth + 1e-3 && short >= 0.0, "{short} vs {depth}");
 }
 
 #[test]
@@ -480,8 +481,8 @@ fn a_flood_s_depth_does_not_depend_on_the_floods_before_it() {
         for cap in [30, 1 << 20] {
             let again = local_depth(&h, topo, pit, cap, &mut shared);
             let fresh = local_depth(&h, topo, pit, cap, &mut Default::default());
-            assert_eq!(again.to_bits(), fresh.to_bits(), "pit {pit}, cap {cap}");
-            deep += usize::from(cap > 30 && fresh > MIN_DEPTH_M);
+            assert_eq!((again.0.to_bits(), again.1), (fresh.0.to_bits(), fresh.1), "pit {pit}, cap {cap}");
+            deep += usize::from(cap > 30 && fresh.0 > MIN_DEPTH_M);
         }
     }
     assert!(deep > 5, "{deep} pits deeper than {MIN_DEPTH_M} m");
@@ -536,4 +537,38 @@ fn a_cut_shallower_than_the_wall_s_slope_is_a_gully_three_cells_wide() {
     // the gully runs along the valley's floor (y = 30), one cell each side of it
     let rows: Vec<usize> = (0..w * hh).filter(|&i| h.data[i] < before.data[i]).map(|i| i / w).collect();
     assert!(!rows.is_empty() && rows.iter().all(|&y| y.abs_diff(30) <= 1), "rows lowered: {rows:?}");
+}
+
+#[test]
+fn a_pit_deep_in_a_dome_with_no_lower_ground_within_the_far_reach_is_breached_to_the_border() {
+    // a dome rising 2 m a cell from the border (500 m) to 740 m at its centre, with a
+    // bowl there sunk to 300 m: no cell within FAR_SEARCH_PATCHES patches (64 cells at
+    // a patch of 2) is lower, only the border 120 cells away lets water out
+    let n = 240usize;
+    let h = Grid::from_vec(
+        n,
+        n,
+        (0..n * n)
+            .map(|i| {
+                let (x, y) = (i % n, i / n);
+                let edge = x.min(y).min(n - 1 - x).min(n - 1 - y) as f32;
+                let r = ((x as f32 - 120.0).powi(2) + (y as f32 - 120.0).powi(2)).sqrt();
+                let dome = 500.0 + 2.0 * edge;
+                if r < 6.0 {
+                    dome.min(300.0 + 70.0 * r)
+                } else {
+                    dome
+                }
+            })
+            .collect(),
+    );
+    let patch = 2;
+    assert!(FAR_SEARCH_PATCHES * patch < 120);
+    let mut t = h.clone();
+    let keep = vec![f32::NEG_INFINITY; n * n];
+    let s = breach_depressions(&mut t, &floors(&keep), patch, Hybrid::FillThenBreach);
+    assert_eq!(s.left, 0, "{s:?}");
+    assert!(drainage_shares(&h, SINK_DEPTH_M).sink_share > 0.0, "the bowl is closed");
+    let after = drainage_shares(&t, SINK_DEPTH_M);
+    assert!(after.border_share > 0.999 && after.sink_share == 0.0, "{after:?}: {s:?}");
 }
