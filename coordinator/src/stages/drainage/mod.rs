@@ -114,8 +114,8 @@
 //! short and the breach starts there); and it never cuts a cell deeper
 //! than [`CUT_PER_DEPTH`] times the depression it drains is deep. A depression the
 //! search cannot leave under those rules (within [`SEARCH_PATCHES`] patches of its
-//! pit, then [`FAR_SEARCH_PATCHES`], then anywhere) is left as it is and counted; so are depressions shallower than [`MIN_DEPTH_M`]
-//! (real DEMs keep such pits). The search runs on the depression-filled terrain
+//! pit, then [`FAR_SEARCH_PATCHES`], then anywhere) is left as it is and counted;
+//! so are depressions shallower than [`MIN_DEPTH_M`] (real DEMs keep such pits). The search runs on the depression-filled terrain
 //! (`solvers::hydrology`), pits in order of height, in passes until none is left or a
 //! pass breaches nothing; a pass after the first takes every cell without a lower
 //! neighbour, with its depth from a flood out of that cell alone instead of flooding
@@ -364,6 +364,12 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floors: &SketchFloors, patch: 
     let n = h.data.len();
     let mut changed = Changed { lowered: CellMarks::new(n), lowered_over_10m: CellMarks::new(n), raised: CellMarks::new(n) };
     let wall = wall_slope(h);
+    // the search's last reach, in patches: the whole terrain (a depression with no
+    // lower ground within FAR_SEARCH_PATCHES, deep in a large canvas: on the 8192²
+    // massif sketch at seed 4, on that steeper base, one such, 386 m deep and 3,000
+    // cells from the border, took 15% of the cells' water; reached, 0.999 of them
+    // drain to the border)
+    let everywhere = h.width.max(h.height).div_ceil(patch).max(FAR_SEARCH_PATCHES + 1);
     // the first pass floods the whole terrain; a later pass takes every cell without a
     // lower neighbour, each with its depth from a flood out of that cell alone
     // the water levels serve the first pass's trenches only (a canvas's worth of
@@ -399,16 +405,12 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floors: &SketchFloors, patch: 
             let depth = if pass == 0 {
                 depth
             } else {
-                // a flood stopped at its cap found less than the depth, and a breach
-                // bounded by that (CUT_PER_DEPTH) may find no way out: a depression
-                // wider than the cap is flooded whole (the 8192² massif sketch, 16
-                // shared DEMs, seed 4, on a drainage base twice as steep, tried in
-                // 3c5a8d0 and reverted: the sink share 0.48 -> 0.12%)
-                let mut scratch = scratch.borrow_mut();
-                match local_depth(h, topo, pit, (2 * SEARCH_PATCHES * patch).pow(2), &mut scratch) {
-                    (d, true) => d,
-                    (_, false) => local_depth(h, topo, pit, usize::MAX, &mut scratch).0,
-                }
+                // flooded whole: a flood stopped at a cap finds less than the depth,
+                // and a breach bounded by that (CUT_PER_DEPTH) may find no way out (the
+                // 8192² massif sketch, 16 shared DEMs, seed 4, on a drainage base twice
+                // as steep, tried in 3c5a8d0 and reverted: with a cap of (6 patches)²
+                // cells the sink share was 0.48%, flooded whole 0.12%)
+                local_depth(h, topo, pit, usize::MAX, &mut scratch.borrow_mut()).0
             };
             if depth <= MIN_DEPTH_M {
                 continue;
@@ -451,12 +453,6 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floors: &SketchFloors, patch: 
                 Hybrid::FillThenBreach => None,
             };
             let max_cost = whole.map_or(f32::INFINITY, |v| v as f32);
-            // the last reach: the whole terrain (a depression with no lower ground within
-            // FAR_SEARCH_PATCHES, deep in a large canvas: on the 8192² massif sketch at
-            // seed 4, on that steeper base, one such, 386 m deep and 3,000 cells from the
-            // border, took 15% of the cells' water; reached, 0.999 of them drain to the
-            // border)
-            let everywhere = h.width.max(h.height).div_ceil(patch).max(FAR_SEARCH_PATCHES + 1);
             let search_below = |h: &Heightfield, pit: usize, max_cost: f32| {
                 // (held, spare, far): the gully's walls kept off the held sides on a
                 // near way out only (a far search that finds none explores the whole
@@ -561,15 +557,8 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floors: &SketchFloors, patch: 
                 }
                 None => {
                     left += 1;
-                    tracing::debug!(
-                        pass,
-                        pit_x = first_pit % h.width,
-                        pit_y = first_pit / h.width,
-                        depth,
-                        max_cut,
-                        z = h.data[first_pit],
-                        "left"
-                    );
+                    let (pit_x, pit_y) = topo.xy(first_pit);
+                    tracing::debug!(pass, pit_x, pit_y, depth, max_cut, z = h.data[first_pit], "depression left");
                 }
             }
         }
