@@ -407,8 +407,8 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floors: &SketchFloors, patch: 
             } else {
                 // flooded whole: a flood stopped at a cap finds less than the depth,
                 // and a breach bounded by that (CUT_PER_DEPTH) may find no way out (the
-                // 8192² massif sketch, 16 shared DEMs, seed 4, on a drainage base twice
-                // as steep, tried in 3c5a8d0 and reverted: with a cap of (6 patches)²
+                // 8192² massif sketch, 16 shared DEMs, seed 4, on the steeper drainage
+                // base of large_scale::DRAINAGE_BASE_RISE: with a cap of (6 patches)²
                 // cells the sink share was 0.48%, flooded whole 0.12%)
                 local_depth(h, topo, pit, usize::MAX, &mut scratch.borrow_mut()).0
             };
