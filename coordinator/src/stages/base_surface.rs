@@ -16,11 +16,10 @@
 //! al. 1996: a pyramid of known means up to one cell, then back down, each level
 //! started from the bilinear coarser one and relaxed by Jacobi sweeps over the unknown
 //! cells). The surface is the cubic B-spline over that coarse grid. The shards
-//! rank fill candidates on the window as it is; the chosen one is merged with its mean
-//! replaced by the base surface and its tilt by the base's plus half its own
-//! ([`on_base`], [`KEPT_TILT`]), so each fill carries its own relief on the shared
-//! large-scale shape, and fronts from both sides of a hole meet at about the same
-//! level. (Ranking on the output minus the base instead made
+//! rank fill candidates on the window as it is; the chosen one is merged with its own
+//! best-fit plane replaced by the base surface ([`on_base`]), so each fill carries its
+//! own relief on the shared large-scale shape, and fronts from both sides of a hole
+//! meet at about the same level. (Ranking on the output minus the base instead made
 //! the shards prefer flat sources: Annapurna's share of 2,146 fills fell from 513
 //! to 226 and the median curvature by a fifth; replacing only the plane keeps the
 //! choice.)
@@ -313,7 +312,7 @@ impl BaseSurface {
 
     /// Candidate `pixels` as merged on this surface, whose values over the patch are
     /// `under` (from [`BaseSurface::patch`]): on a smooth target, the candidate's
-    /// mean and half its tilt replaced by it ([`on_base`]); on a coarser level's terrain, the
+    /// best-fit plane replaced by it ([`on_base`]); on a coarser level's terrain, the
     /// candidate's detail below that level's scale added to it ([`detail_on`]).
     pub fn lay(&self, pixels: &[f32], under: &[f32]) -> Vec<f32> {
         match self.detail_sigma {
@@ -394,26 +393,10 @@ impl Rows<'_> {
     }
 }
 
-/// The share of a featureless candidate's own tilt (its best-fit plane's slope) that
-/// stays when it is laid on the base surface ([`on_base`]). A real window drains
-/// largely along its tilt: its valleys descend that way, and with the tilt replaced by
-/// a smooth target they end in pits (1.3% → 5.4% of a window's cells closed, 16 DEMs:
-/// `hole_filling::dams`). Kept whole, the tilts carried the fronts' levels across the
-/// holes again (sparse-1024: its highest cell 4,636 → 8,837 m, the top of the range,
-/// the landform distance 0.094 → 0.155). At a half, against none (seed 3, on the
-/// drainage base of `large_scale::DRAINAGE_BASE_RISE`; `scripts/form-bench.py`), the
-/// cells the conditioning lowered fell on sparse-1024 6.96 → 4.39%, mixed-1024 7.76 →
-/// 5.86%, traced-alaska-1024 12.31 → 10.85%, small-range-512 5.64 → 4.34% and
-/// massif-4096 7.38 → 6.92% (its straight trenches 49 → 40); traced-rockies-1024 rose
-/// 10.94 → 11.11%. At seed 4 it fell on all six 1024² pairs tried (lambda-valleys
-/// 10.13 → 7.58%, sparse 6.60 → 4.00%). The landform distance rose by up to 0.029
-/// (sparse-1024 at seed 4, 0.088 → 0.117; the DEMs the traced sketches came from score
-/// 0.108 to 0.409 against their libraries), adherence held within 0.005. A quarter
-/// kept lowered less (sparse-1024 5.56%, mixed-1024 7.18%).
-pub const KEPT_TILT: f64 = 0.5;
-
-/// The mean and the best-fit plane's slopes (per cell, x and y) of a square patch.
-fn plane_of(pixels: &[f32]) -> (f64, f64, f64) {
+/// A featureless candidate as it is merged: its own best-fit plane over the patch
+/// replaced by the base surface (`base_surface`), so its tilt does not carry the
+/// front's level across the hole, while its relief about that plane stays its own.
+pub fn on_base(pixels: &[f32], base: &[f32]) -> Vec<f32> {
     let p = (pixels.len() as f64).sqrt() as usize;
     let c = (p as f64 - 1.0) / 2.0;
     let (mut s, mut sx, mut sy, mut sxx) = (0f64, 0f64, 0f64, 0f64);
@@ -424,15 +407,8 @@ fn plane_of(pixels: &[f32]) -> (f64, f64, f64) {
         sy += y * v as f64;
         sxx += x * x;
     }
-    (s / pixels.len() as f64, sx / sxx, sy / sxx)
-}
-
-/// `pixels` less its mean and `1 - kept` of its best-fit plane's tilt, plus `base`.
-fn replace_plane(pixels: &[f32], base: &[f32], kept: f64) -> Vec<f32> {
-    let p = (pixels.len() as f64).sqrt() as usize;
-    let c = (p as f64 - 1.0) / 2.0;
-    let (mean, gx, gy) = plane_of(pixels);
-    let (gx, gy) = ((1.0 - kept) * gx, (1.0 - kept) * gy);
+    let n = pixels.len() as f64;
+    let (mean, gx, gy) = (s / n, sx / sxx, sy / sxx);
     pixels
         .iter()
         .zip(base)
@@ -442,14 +418,6 @@ fn replace_plane(pixels: &[f32], base: &[f32], kept: f64) -> Vec<f32> {
             (v as f64 - mean - gx * x - gy * y) as f32 + b
         })
         .collect()
-}
-
-/// A featureless candidate as it is merged: its mean replaced by the base surface
-/// (`base_surface`) and its tilt by the base's plus [`KEPT_TILT`] of its own, so its
-/// tilt carries the front's level across the hole only in part, while its relief about
-/// that plane stays its own.
-pub fn on_base(pixels: &[f32], base: &[f32]) -> Vec<f32> {
-    replace_plane(pixels, base, KEPT_TILT)
 }
 
 /// The detail of a square patch `pixels` below a Gaussian of `sigma` cells (the patch
@@ -487,7 +455,7 @@ fn less_quadric(pixels: &[f32], p: usize) -> Vec<f32> {
         let piv = (i..6).max_by(|&r, &s| a[r][i].abs().total_cmp(&a[s][i].abs())).unwrap_or(i);
         a.swap(i, piv);
         if a[i][i].abs() < 1e-12 {
-            return replace_plane(pixels, &vec![0f32; pixels.len()], 0.0);
+            return on_base(pixels, &vec![0f32; pixels.len()]);
         }
         let pivot = a[i];
         for (r, row) in a.iter_mut().enumerate() {
@@ -601,16 +569,14 @@ mod tests {
     fn on_base_swaps_the_plane_and_keeps_the_relief() {
         let p = 16;
         let bump = |x: usize, y: usize| ((x as f32 - 7.5).powi(2) + (y as f32 - 7.5).powi(2)) * -0.5;
-        // a tilted bump on a tilted base: the result is the base plus the bump about its
-        // mean plus the kept share of the bump's tilt (about the patch's centre)
+        // a tilted bump on a tilted base: the result is the base plus the bump about its mean
         let pixels: Vec<f32> =
             (0..p * p).map(|k| 300.0 + 9.0 * (k % p) as f32 - 4.0 * (k / p) as f32 + bump(k % p, k / p)).collect();
         let base: Vec<f32> = (0..p * p).map(|k| 1000.0 + 2.0 * (k / p) as f32).collect();
         let mean_bump = (0..p * p).map(|k| bump(k % p, k / p)).sum::<f32>() / (p * p) as f32;
-        let tilt = |k: usize| KEPT_TILT as f32 * (9.0 * ((k % p) as f32 - 7.5) - 4.0 * ((k / p) as f32 - 7.5));
         let out = on_base(&pixels, &base);
         for k in 0..p * p {
-            let want = base[k] + bump(k % p, k / p) - mean_bump + tilt(k);
+            let want = base[k] + bump(k % p, k / p) - mean_bump;
             assert!((out[k] - want).abs() < 1e-2, "cell {k}: {} vs {want}", out[k]);
         }
     }

@@ -50,10 +50,9 @@ pub use hold::{anchor, hold_range, hold_to_coarse, ANCHOR_SIGMA_PATCHES, COARSE_
 
 /// The drainage base rises from the border by this many times the library's relief at
 /// a quarter of the output's side over that distance (a quarter of that rate along
-/// valley cells). Patches are laid on the target with their own tilt taken out (half
-/// of it since `base_surface::KEPT_TILT`; the figures below are from before that),
-/// and a real window drains largely along its tilt: where the target is flat, a
-/// fill's valleys end in pits. At 1 against 0.5 (seed 3, the ten
+/// valley cells). Patches are laid on the target with their own tilt taken out
+/// (`base_surface::on_base`), and a real window drains largely along its tilt: where
+/// the target is flat, a fill's valleys end in pits. At 1 against 0.5 (seed 3, the ten
 /// pairs of `scripts/form-bench.py`), the cells the synthesis left closed before the
 /// conditioning fell on all ten (traced-alaska-1024 23.0 → 18.8%, traced-norway-1024
 /// 26.8 → 21.5%, small-range-512 15.1 → 9.5%, sparse-1024 13.0 → 10.1%, massif-4096
