@@ -115,8 +115,8 @@
 //! than [`CUT_PER_DEPTH`] times the depression it drains is deep. A depression the
 //! search cannot leave under those rules (within [`SEARCH_PATCHES`] patches of its
 //! pit, then [`FAR_SEARCH_PATCHES`], then anywhere) is left as it is and counted;
-//! so are depressions shallower than [`MIN_DEPTH_M`] (real DEMs keep such pits). The search runs on the depression-filled terrain
-//! (`solvers::hydrology`), pits in order of height, in passes until none is left or a
+//! so are depressions shallower than [`MIN_DEPTH_M`] (real DEMs keep such pits). The
+//! search runs on the depression-filled terrain (`solvers::hydrology`), pits in order of height, in passes until none is left or a
 //! pass breaches nothing; a pass after the first takes every cell without a lower
 //! neighbour, with its depth from a flood out of that cell alone instead of flooding
 //! the whole terrain again (mixed-1024: the stage took 0.37 s with four full floods,
@@ -410,7 +410,7 @@ fn breach_on(h: &mut Heightfield, topo: Topology, floors: &SketchFloors, patch: 
                 // 8192² massif sketch, 16 shared DEMs, seed 4, on the steeper drainage
                 // base of large_scale::DRAINAGE_BASE_RISE: with a cap of (6 patches)²
                 // cells the sink share was 0.48%, flooded whole 0.12%)
-                local_depth(h, topo, pit, usize::MAX, &mut scratch.borrow_mut()).0
+                local_depth(h, topo, pit, &mut scratch.borrow_mut())
             };
             if depth <= MIN_DEPTH_M {
                 continue;

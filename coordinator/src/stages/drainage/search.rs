@@ -81,10 +81,6 @@ impl CellSet {
         new
     }
 
-    fn len(&self) -> usize {
-        self.cells.len()
-    }
-
     /// Empties the set (a list of cells longer than `keep` is let go).
     fn clear(&mut self, keep: usize) {
         for &c in &self.cells {
@@ -99,10 +95,8 @@ impl CellSet {
 
 /// How deep the depression holding `pit` is: its spill level (the lowest level at
 /// which water from the pit reaches a lower cell or the border: a priority-flood out
-/// of the pit alone) less the pit's height, and whether the flood got out. A flood
-/// that covers more than `max_cells` without getting out stops there and gives the
-/// depth it has found so far (at most the true depth), and `false`.
-pub(super) fn local_depth(h: &Heightfield, topo: Topology, pit: usize, max_cells: usize, scratch: &mut Scratch) -> (f32, bool) {
+/// of the pit alone, over the whole depression however wide) less the pit's height.
+pub(super) fn local_depth(h: &Heightfield, topo: Topology, pit: usize, scratch: &mut Scratch) -> f32 {
     scratch.clear();
     let Scratch { seen, heap, .. } = scratch;
     let z = h.data[pit];
@@ -113,11 +107,11 @@ pub(super) fn local_depth(h: &Heightfield, topo: Topology, pit: usize, max_cells
     while let Some(Reverse(k)) = heap.pop() {
         let (v, c) = (k.value(), k.cell());
         if c != pit && v < z {
-            return (spill - z, true);
+            return spill - z;
         }
         spill = spill.max(v);
-        if topo.is_outlet(c) || seen.len() > max_cells {
-            return (spill - z, topo.is_outlet(c));
+        if topo.is_outlet(c) {
+            return spill - z;
         }
         for j in topo.neighbours(c) {
             if h.data[j].is_finite() && seen.insert(j) {
@@ -125,7 +119,7 @@ pub(super) fn local_depth(h: &Heightfield, topo: Topology, pit: usize, max_cells
             }
         }
     }
-    (spill - z, true)
+    spill - z
 }
 
 /// The deepest cell of every depression deeper than [`MIN_DEPTH_M`], as (height, cell,
