@@ -5,15 +5,37 @@
 //! from the border for the patch to fit in every variant, each with its control
 //! points (exit angles on the circle of radius patch/4).
 //!
-//! Featureless candidates sit on a regular grid of 12 x 12 centres per exemplar (Crause
-//! §7.1 uses about 8 x 8; a larger pool gives hole filling more variety, which the
-//! coherence bonus needs so that staying with one exemplar does not mean repeating
-//! it) and keep only centres at least patch/8 from any feature cell. Where a rugged
-//! exemplar leaves fewer than 8, the 8 centres farthest from a feature are kept
-//! instead, so every source still contributes.
+//! The hole-filling pool (the shard contract's "featureless" candidates, after Zhou
+//! 2007's non-feature patches) is a sample of the exemplar's windows at every relief:
+//! of the windows centred on a regular grid of 12 x 12 (Crause §7.1 uses about 8 x 8),
+//! the 16 at evenly spaced ranks of their relief, from the smoothest to the roughest
+//! ([`featureless_patches`]). Holes are most of a terrain (all of it away from the
+//! strokes), so this pool is what the terrain between the strokes is made of.
+//!
+//! It used to keep only centres at least patch/8 from any feature cell (Zhou's rule).
+//! On a mountain DEM, ridge and valley lines run everywhere, and only flat ground is
+//! that far from one: valley floors, lakes, plateaus. So the pool held each source's
+//! flattest windows: 8 of 144 on the rugged sources, and 41 on patagonia, whose lake
+//! floors then made 66% of a 4096² sparse sketch's fills. The holes became the
+//! "mountain blobs on flat ground" of issue 25. With the relief sample (seed 3, the
+//! ten pairs of `scripts/form-bench.py`):
+//! - the landform distance fell on all ten (sparse-1024 0.094 → 0.050, small-range-512
+//!   0.066 → 0.043, massif-4096 0.101 → 0.080, traced-colorado-4096 0.103 → 0.083);
+//! - the relief contrast between neighbouring blocks came down to the sources' (sparse-1024
+//!   0.438 → 0.306 against 0.290, massif-4096 0.407 → 0.317 against 0.323);
+//! - the flat share fell (mixed-1024 0.185 → 0.007%);
+//! - the straight trenches on the 4096² pairs went 49 → 26, 60 → 42 and 50 → 22.
+//!
+//! It costs the drainage conditioning work on the 4096² sketches: rough windows leave
+//! more closed ground. The cells lowered went 7.38 → 10.33% (massif-4096) and
+//! 8.49 → 11.23% (sparse-4096); on the 1024² pairs they moved −0.9 to +0.5 points.
+//! The roughness ratio there rose from 1.13 to 1.43 and 1.54 (traced-colorado-4096
+//! 1.08 → 1.14): the fills now come more often from appalachians and yangshuo, whose
+//! power at 2–6 cells over 8–32 is 3.4 and 4.4 times karakoram's (the sixteen sources'
+//! own ratios span 0.0075–0.062, a factor of eight).
 
 use ridgeline_terrain::costs::{noise_variances, patch_relief_ln};
-use ridgeline_terrain::feature_extraction::{FeatureGraph, PerKind};
+use ridgeline_terrain::feature_extraction::FeatureGraph;
 use ridgeline_terrain::grid::{distance_transform, Grid};
 use ridgeline_terrain::patch_geometry::{exits, extract_patch, Variant};
 
@@ -95,62 +117,53 @@ pub struct FeaturelessPatch {
     pub relief: f32,
 }
 
-/// Extracts the featureless pool of an exemplar.
-/// Extracts the featureless pool of an exemplar whose features are `graphs`.
-pub fn featureless_patches(h: &Grid<f32>, graphs: &PerKind<FeatureGraph>, patch: usize) -> Vec<FeaturelessPatch> {
+/// Windows of an exemplar in its hole-filling pool: [`FILL_POOL_GRID`]² centres on a
+/// regular grid, of which this many, spread evenly over their relief order.
+pub const FILL_POOL_PER_SOURCE: usize = 16;
+
+/// Centres per axis of the grid the hole-filling pool is drawn from.
+pub const FILL_POOL_GRID: usize = 12;
+
+/// Extracts the hole-filling pool of an exemplar (see the module header): of the
+/// windows centred on a [`FILL_POOL_GRID`]² grid without a void, [`FILL_POOL_PER_SOURCE`]
+/// at evenly spaced ranks of their relief (`costs::patch_relief_ln`), from the
+/// smoothest to the roughest, in raster order of their centres.
+pub fn featureless_patches(h: &Grid<f32>, patch: usize) -> Vec<FeaturelessPatch> {
     let (w, hh) = (h.width, h.height);
     if w < patch + 2 || hh < patch + 2 {
         return Vec::new();
     }
-    let mut feature = Grid::new(w, hh, false);
-    for p in graphs.values().flat_map(|g| g.pixels()) {
-        feature.data[p as usize] = true;
-    }
-    // distance from a centre to the nearest feature cell, searched up to patch/2
-    let limit = (patch / 2) as i64;
-    let dist_at = |x: usize, y: usize| -> f32 {
-        let mut best = f32::INFINITY;
-        for dy in -limit..=limit {
-            for dx in -limit..=limit {
-                if feature.get_i(x as i64 + dx, y as i64 + dy) == Some(true) {
-                    best = best.min(((dx * dx + dy * dy) as f32).sqrt());
-                }
-            }
-        }
-        best.min(limit as f32 + 1.0)
-    };
     let half = patch / 2;
     let axis = |n: usize| -> Vec<usize> {
         let (lo, hi) = (half, n - half - 1);
-        let steps = 12usize;
-        let mut v: Vec<usize> = (0..steps).map(|i| lo + (hi - lo) * i / (steps - 1)).collect();
+        let mut v: Vec<usize> = (0..FILL_POOL_GRID).map(|i| lo + (hi - lo) * i / (FILL_POOL_GRID - 1)).collect();
         v.dedup();
         v
     };
-    let mut centres: Vec<(usize, usize, f32)> = Vec::new();
+    let mut windows: Vec<FeaturelessPatch> = Vec::new();
     for &y in &axis(hh) {
         for &x in &axis(w) {
-            centres.push((x, y, dist_at(x, y)));
-        }
-    }
-    let min_d = patch as f32 / 8.0;
-    let mut keep: Vec<(usize, usize, f32)> = centres.iter().copied().filter(|c| c.2 >= min_d).collect();
-    if keep.len() < 8 {
-        centres.sort_by(|a, b| b.2.total_cmp(&a.2).then((a.1, a.0).cmp(&(b.1, b.0))));
-        keep = centres.into_iter().take(8).collect();
-        keep.sort_by_key(|c| (c.1, c.0));
-    }
-    keep.into_iter()
-        .filter_map(|(x, y, _)| {
             let pixels = extract_patch(h, x, y, patch, Variant(0));
             if pixels.iter().any(|v| !v.is_finite()) {
-                return None;
+                continue;
             }
-            let noise = noise_variances(&pixels, patch)?;
-            let relief = patch_relief_ln(&pixels, patch)?;
-            Some(FeaturelessPatch { x: x as u32, y: y as u32, pixels, noise, relief })
-        })
-        .collect()
+            let (Some(noise), Some(relief)) = (noise_variances(&pixels, patch), patch_relief_ln(&pixels, patch)) else {
+                continue;
+            };
+            windows.push(FeaturelessPatch { x: x as u32, y: y as u32, pixels, noise, relief });
+        }
+    }
+    let n = windows.len();
+    if n <= FILL_POOL_PER_SOURCE {
+        return windows;
+    }
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| windows[a].relief.total_cmp(&windows[b].relief).then(a.cmp(&b)));
+    let mut keep = vec![false; n];
+    for i in 0..FILL_POOL_PER_SOURCE {
+        keep[order[i * (n - 1) / (FILL_POOL_PER_SOURCE - 1)]] = true;
+    }
+    windows.into_iter().zip(keep).filter_map(|(p, k)| k.then_some(p)).collect()
 }
 
 #[cfg(test)]
@@ -188,18 +201,45 @@ mod tests {
         assert!(valid.get(50, 150) || valid.get(150, 50) || valid.get(47, 47));
     }
 
+    /// A terrain whose left half is gentle and right half rugged: the pool takes
+    /// windows from both halves, in raster order, and spans the relief of every window
+    /// on the grid (the rule it replaced kept only windows far from feature lines,
+    /// which on mountain DEMs means the flattest).
     #[test]
-    fn featureless_centres_avoid_features() {
+    fn the_fill_pool_samples_every_relief_and_ignores_feature_lines() {
         let (w, h) = (300, 300);
-        let terrain =
-            Grid::from_vec(w, h, (0..w * h).map(|i| ((i % w) as f32 * 0.1).sin() * 10.0 + (i / w) as f32 * 0.05).collect());
-        let mut ridges = FeatureGraph::empty(w, h);
-        for y in 0..299 {
-            ridges.add_edge((y * w + 150) as u32, ((y + 1) * w + 150) as u32);
-        }
-        let valleys = FeatureGraph::empty(w, h);
-        let pool = featureless_patches(&terrain, &PerKind([ridges, valleys]), 64);
-        assert!(pool.len() >= 8);
-        assert!(pool.iter().all(|p| (p.x as i64 - 150).abs() >= 8 && p.pixels.len() == 64 * 64));
+        let terrain = Grid::from_vec(
+            w,
+            h,
+            (0..w * h)
+                .map(|i| {
+                    let (x, y) = ((i % w) as f32, (i / w) as f32);
+                    let amp = if x < 150.0 { 2.0 } else { 200.0 };
+                    (x * 0.37).sin() * (y * 0.23).cos() * amp + y * 0.05
+                })
+                .collect(),
+        );
+        let pool = featureless_patches(&terrain, 64);
+        assert_eq!(pool.len(), FILL_POOL_PER_SOURCE);
+        assert!(pool.iter().all(|p| p.pixels.len() == 64 * 64));
+        assert!(pool.iter().any(|p| p.x + 32 < 150) && pool.iter().any(|p| p.x > 150 + 32));
+        assert!(pool.windows(2).all(|q| (q[0].y, q[0].x) < (q[1].y, q[1].x)));
+        let reliefs: Vec<f32> = pool.iter().map(|p| p.relief).collect();
+        let (lo, hi) = reliefs.iter().fold((f32::MAX, f32::MIN), |(a, b), &r| (a.min(r), b.max(r)));
+        let all: Vec<f32> = (0..12)
+            .flat_map(|j| (0..12).map(move |i| (32 + (300 - 33 - 32) * i / 11, 32 + (300 - 33 - 32) * j / 11)))
+            .map(|(x, y)| patch_relief_ln(&extract_patch(&terrain, x, y, 64, Variant(0)), 64).unwrap())
+            .collect();
+        let (alo, ahi) = all.iter().fold((f32::MAX, f32::MIN), |(a, b), &r| (a.min(r), b.max(r)));
+        assert_eq!((lo, hi), (alo, ahi), "the smoothest and roughest windows are both in the pool");
+        assert_eq!(
+            featureless_patches(&terrain, 64).iter().map(|p| (p.x, p.y)).collect::<Vec<_>>(),
+            pool.iter().map(|p| (p.x, p.y)).collect::<Vec<_>>()
+        );
+    }
+
+    #[test]
+    fn a_source_smaller_than_a_patch_has_no_pool() {
+        assert!(featureless_patches(&Grid::new(60, 200, 0.0f32), 64).is_empty());
     }
 }

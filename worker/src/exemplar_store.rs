@@ -139,7 +139,7 @@ fn prepare_source(
     let spacing = (patch * 5 / 32).max(2);
     let valid = valid_centres(&heights, reach);
     let nodes = graphs.map(|_, g| feature_nodes(g, &valid, patch, spacing));
-    let featureless = featureless_patches(&heights, &graphs, patch);
+    let featureless = featureless_patches(&heights, patch);
     let counts = nodes.map(|_, n| n.len());
     tracing::debug!(feature_nodes = ?counts, featureless = featureless.len(), cache_hit, "exemplar ready");
     if counts.total() == 0 && featureless.is_empty() {
