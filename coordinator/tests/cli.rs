@@ -1042,7 +1042,8 @@ fn regions_take_their_own_exemplars_and_meet_without_a_step() {
     let regions = |crests: &str, blend: u32| {
         format!("map = \"map.png\"\nblend = {blend}\n[[region]]\nname = \"range\"\ncolour = \"#dc001e\"\nexemplars = [\"{crests}\"]\n[[region]]\nname = \"rolling\"\ncolour = \"#00c81e\"\nexemplars = [\"downs\", \"moor\"]\n")
     };
-    std::fs::write(d.join("regions.toml"), regions("crests", 16)).unwrap();
+    // a blend of a patch (the default): the crests' fills are rugged up to the boundary
+    std::fs::write(d.join("regions.toml"), regions("crests", 32)).unwrap();
     // a job on `sketch` (with more arguments), its report beside the terrain
     let job = |sketch: &Path, extra: &[&str], out: &str| synth_in(&d, sketch, &m, "4", extra, out);
     let regions_file = d.join("regions.toml");
@@ -1098,7 +1099,7 @@ fn regions_take_their_own_exemplars_and_meet_without_a_step() {
 
     // the same regions drawn as polygons in a vector sketch: the range an ellipse of
     // 32 corners, the rolling region the rest (no polygon); drawn on a canvas half the
-    // terrain's size, scaled with the strokes
+    // terrain's size, scaled with the strokes; the blend left to its default
     let ellipse: Vec<[f32; 2]> = (0..32)
         .map(|k| {
             let a = k as f32 * std::f32::consts::TAU / 32.0;
@@ -1112,7 +1113,7 @@ fn regions_take_their_own_exemplars_and_meet_without_a_step() {
                 {"pen": "ridge", "width": 2.5, "points": [[10, 27.5], [85, 46]]},
                 {"pen": "valley", "width": 2.5, "points": [[10, 58], [85, 43]]}
             ],
-            "regions": {"blend": 16, "regions": [
+            "regions": {"regions": [
                 {"name": "rolling", "exemplars": ["downs", "moor"]},
                 {"name": "range", "exemplars": ["crests"], "polygons": [polygon]}
             ]}

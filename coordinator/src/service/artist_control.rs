@@ -23,7 +23,7 @@ pub struct RegionsRequest {
     #[serde(default)]
     pub map_png_base64: Option<String>,
     pub regions: Vec<RegionSpec>,
-    /// Cells across each boundary (default half a patch).
+    /// Cells across each boundary (default a patch).
     #[serde(default)]
     pub blend: Option<usize>,
 }
