@@ -37,6 +37,21 @@ pub const CELL_PATCH_DIV: usize = 2;
 /// between the bands: [`BaseSurface::coarse_terrain`]).
 pub const DETAIL_BAND: f32 = 2.0;
 
+/// A patch laid on a blurred coarser level's terrain keeps its detail below this many
+/// times the band's σ ([`BaseSurface::coarse_terrain`]). The two bands come from
+/// different windows, so they add up in power, not in amplitude: at a wavelength the
+/// coarse blur passes with gain `G`, a patch cut at the same σ keeps `1 − G`, and the
+/// sum of powers `G² + (1 − G)²` falls to a half where `G` is a half (about 43 cells
+/// at the default band). Cut at twice the σ it keeps `1 − G⁴`, and `G² + (1 − G⁴)²`
+/// stays within 0.94–1.13 at every wavelength. On the 4096² sparse and massif pairs of
+/// `scripts/form-bench.py` (seed 3), with the cut at the band itself, the output had
+/// 65% of its sources' power at 8–32 cells (their weighted mean), and the roughness
+/// ratio was 1.43 and 1.54; cut at twice, 1.07 and 1.12 (at √2 times, 1.16 and 1.26),
+/// with the spectral slope's difference 0.12 → 0.03 and the landform distance
+/// 0.088 → 0.082 and 0.080 → 0.075; the drainage conditioning lowered 0.6 and 1.0
+/// points more of the cells (11.83% and 11.34%).
+pub const DETAIL_KEPT_BANDS: f32 = 2.0;
+
 /// Jacobi sweeps over the unknown cells at each pyramid level.
 const SWEEPS: usize = 24;
 
@@ -51,6 +66,9 @@ pub struct BaseSurface {
     /// every wavelength down to about its cell, so a patch laid on it keeps only its
     /// detail below that scale, not its relief about a plane.
     detail_sigma: Option<f32>,
+    /// On a coarser level's terrain, the σ (output cells) below which a patch laid on
+    /// it keeps its detail ([`BaseSurface::lay`]).
+    kept_sigma: Option<f32>,
 }
 
 /// One pyramid level: values and which cells are known.
@@ -240,38 +258,44 @@ impl BaseSurface {
             levels.last_mut().expect("a level").pull(&coarse);
         }
         let top = levels.pop().expect("a level");
-        BaseSurface { cell, cw, ch, values: top.v, detail_sigma: None }
+        BaseSurface { cell, cw, ch, values: top.v, detail_sigma: None, kept_sigma: None }
     }
 
     /// A surface over a grid of `cw x ch` coarse cells of `cell` cells each, with the
     /// given values (row by row).
     pub fn from_grid(cell: usize, cw: usize, ch: usize, values: Vec<f32>) -> BaseSurface {
         assert_eq!(values.len(), cw * ch, "one value per coarse cell");
-        BaseSurface { cell: cell.max(1), cw, ch, values, detail_sigma: None }
+        BaseSurface { cell: cell.max(1), cw, ch, values, detail_sigma: None, kept_sigma: None }
     }
 
     /// A coarser level's terrain, `f` output cells a coarse cell, as the surface the
-    /// output level is laid on: patches keep only the wavelengths below about
-    /// [`DETAIL_BAND`] coarse cells (a Laplacian pyramid's band, Burt and Adelson
-    /// 1983), the coarse terrain gives the rest. The coarse grid is blurred so that,
-    /// with its cells' box of `f` (variance f²/12) and the B-spline (f²/3), the surface
-    /// is the coarse terrain under a Gaussian of σ = DETAIL_BAND·f: the same blur
-    /// [`detail_on`] takes out of each patch, so the two bands add up to one terrain.
-    /// (With the band at the coarse cell itself, σ = 0.65 f, the coarse patches'
-    /// short wavelengths doubled the output's power at 8 to 32 cells: half the
-    /// sources' roughness on a 4096² job.) `band` is that σ in coarse cells:
-    /// [`DETAIL_BAND`] where both levels come from the same exemplars, the coarse
-    /// cell itself where the output level adds only what the coarse one cannot hold
-    /// (`stages::detail_level`).
+    /// output level is laid on: the coarse terrain gives the wavelengths above about
+    /// [`DETAIL_BAND`] coarse cells, patches the ones below (a Laplacian pyramid's
+    /// bands, Burt and Adelson 1983). The coarse grid is blurred so that, with its
+    /// cells' box of `f` (variance f²/12) and the B-spline (f²/3), the surface is the
+    /// coarse terrain under a Gaussian of σ = DETAIL_BAND·f, and [`detail_on`] takes
+    /// a blur of [`DETAIL_KEPT_BANDS`] times that σ out of each patch, so that the two
+    /// bands' powers add up to about one terrain's. (With the band at the coarse cell
+    /// itself, σ = 0.65 f, the coarse patches' short wavelengths doubled the output's
+    /// power at 8 to 32 cells: half the sources' roughness on a 4096² job.) `band` is
+    /// that σ in coarse cells: [`DETAIL_BAND`] where both levels come from the same
+    /// exemplars; the coarse cell itself where the output level adds only what the
+    /// coarse one cannot hold (`stages::detail_level`), whose surface passes through
+    /// the coarse cells' values and whose patches are cut at that σ itself.
     pub fn coarse_terrain(f: usize, cw: usize, ch: usize, values: Vec<f32>, band: CoarseBand) -> BaseSurface {
-        let (values, sigma) = match band {
+        let (values, sigma, kept) = match band {
             CoarseBand::Blurred(band) => {
                 let pre = (band * band - 5.0 / 12.0).max(0.0).sqrt();
-                (gaussian_blur(&values, cw, ch, pre), band)
+                (gaussian_blur(&values, cw, ch, pre), band, band * DETAIL_KEPT_BANDS)
             }
-            CoarseBand::Interpolated(band) => (bspline_coefficients(&values, cw, ch), band),
+            CoarseBand::Interpolated(band) => (bspline_coefficients(&values, cw, ch), band, band),
         };
-        BaseSurface { detail_sigma: Some(sigma * f as f32), ..BaseSurface::from_grid(f, cw, ch, values) }
+        let f32_f = f as f32;
+        BaseSurface {
+            detail_sigma: Some(sigma * f32_f),
+            kept_sigma: Some(kept * f32_f),
+            ..BaseSurface::from_grid(f, cw, ch, values)
+        }
     }
 
     /// On a coarser level's terrain, the σ (output cells) of the band between the
@@ -315,7 +339,7 @@ impl BaseSurface {
     /// best-fit plane replaced by it ([`on_base`]); on a coarser level's terrain, the
     /// candidate's detail below that level's scale added to it ([`detail_on`]).
     pub fn lay(&self, pixels: &[f32], under: &[f32]) -> Vec<f32> {
-        match self.detail_sigma {
+        match self.kept_sigma {
             Some(sigma) => detail_on(pixels, under, sigma),
             None => on_base(pixels, under),
         }
@@ -604,6 +628,43 @@ mod tests {
         let kept = target.lay(&pixels, &vec![1000.0; p * p]);
         let amp = (16..48).map(|x| (kept[32 * p + x] - 1000.0).abs()).fold(0f32, f32::max);
         assert!(amp > 30.0, "the bump stays on a smooth target: {amp}");
+    }
+
+    /// A wave's gain through the coarse surface (its values sampled on the coarse
+    /// grid) and through a patch laid on it: their powers add up to about one at
+    /// every wavelength across the band between the levels, as two independent
+    /// windows' bands must for the output to keep its sources' spectrum. (Cut at
+    /// the band's σ itself, as before `DETAIL_KEPT_BANDS`, the sums at periods 16, 24,
+    /// 32 and 40 were 0.98, 0.81, 0.59 and 0.49; cut at twice, 1.04, 1.06, 1.24, 0.88.)
+    #[test]
+    fn the_two_bands_add_up_in_power_across_the_cut() {
+        let (p, f, n) = (64usize, 4usize, 64usize);
+        let tau = std::f32::consts::TAU;
+        // amplitude of the wave of `period` along `xs` of a row `v(x)`, by projection
+        let gain = |v: &dyn Fn(usize) -> f32, xs: std::ops::Range<usize>, period: f32| {
+            let (mut a, mut b, mut m) = (0f32, 0f32, 0f32);
+            for x in xs.clone() {
+                let t = x as f32 * tau / period;
+                a += v(x) * t.sin();
+                b += v(x) * t.cos();
+                m += 1.0;
+            }
+            2.0 * (a * a + b * b).sqrt() / m
+        };
+        let mut sums = Vec::new();
+        for period in [16.0f32, 24.0, 32.0, 40.0] {
+            // coarse cell i covers output cells 4i..4i+4: its value the wave at its centre
+            let values: Vec<f32> = (0..n * n).map(|k| ((f * (k % n)) as f32 + 1.5) * tau / period).map(f32::sin).collect();
+            let coarse = BaseSurface::coarse_terrain(f, n, n, values, CoarseBand::Blurred(DETAIL_BAND));
+            let c = gain(&|x| coarse.at(x, n * f / 2), 64..192, period);
+            let pixels: Vec<f32> = (0..p * p).map(|k| ((k % p) as f32 * tau / period).sin()).collect();
+            let laid = coarse.lay(&pixels, &vec![0.0; p * p]);
+            // one whole period about the patch's centre (the blur's taps are whole there)
+            let half = period as usize / 2;
+            let d = gain(&|x| laid[32 * p + x], 32 - half..32 + half, period);
+            sums.push((period, c, d, c * c + d * d));
+        }
+        assert!(sums.iter().all(|s| (0.8..1.3).contains(&s.3)), "gains (period, coarse, patch, power): {sums:?}");
     }
 
     #[test]

@@ -6,12 +6,14 @@
 //! a canvas [`FACTOR`] times smaller each way, the filled terrain held to the target
 //! above a few patches (`large_scale::anchor`) — and the coarse terrain then becomes
 //! the surface every patch of the output level is merged on
-//! (`BaseSurface::coarse_terrain`): each patch keeps only its detail below a Gaussian
-//! of σ = `DETAIL_BAND` coarse cells, the coarse terrain under the same blur gives
-//! everything larger — the two bands of a Laplacian pyramid, so the output's spectrum
-//! is the exemplars' at both scales (with the patches' whole relief about a plane on
-//! the coarse terrain instead, the 8-to-32-cell band held both levels' power and the
-//! roughness ratio fell to 0.5 on a 4096² job).
+//! (`BaseSurface::coarse_terrain`): the coarse terrain under a Gaussian of σ =
+//! `DETAIL_BAND` coarse cells gives everything larger, each patch its detail below
+//! twice that σ (`base_surface::DETAIL_KEPT_BANDS`) — the two bands of a Laplacian
+//! pyramid, overlapping so that their powers add up to one terrain's, and the output's
+//! spectrum is the exemplars' at both scales (with the patches' whole relief about a
+//! plane on the coarse terrain instead, the 8-to-32-cell band held both levels' power
+//! and the roughness ratio fell to 0.5 on a 4096² job; cut at the band itself, the
+//! band between the levels lost a third of its power and the ratio rose to 1.4–1.5).
 //!
 //! **Why.** A patch is 64 cells; on a 4096² sketch a 40-cell ridge stroke asks for a
 //! landform four times wider, and the smooth target of `large_scale` alone gives it

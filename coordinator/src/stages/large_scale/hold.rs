@@ -62,8 +62,8 @@ pub const COARSE_HOLD_BANDS: f32 = 2.0;
 /// Holds the output level's terrain `h`, filled on a coarse level's terrain `coarse`
 /// (`BaseSurface::coarse_terrain`), to that terrain above [`COARSE_HOLD_BANDS`] times
 /// the σ of the band between the levels ([`anchor_above`]; nothing on a surface that
-/// is no coarse level's). Each patch brings only its detail below the band
-/// (`base_surface::detail_on`), yet each fill is levelled by its overlap with what is
+/// is no coarse level's). Each patch brings only its detail below twice the band
+/// (`base_surface::detail_on`, `DETAIL_KEPT_BANDS`), yet each fill is levelled by its overlap with what is
 /// there, so the levels walked away from the coarse form as the fronts crossed the
 /// canvas: on a 4096² massif sketch (16 shared DEMs, seed 3) the filled terrain stood
 /// 178 m (standard deviation) off the coarse terrain under a Gaussian of 64 cells,
