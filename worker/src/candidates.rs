@@ -32,7 +32,9 @@
 //! The roughness ratio there rose from 1.13 to 1.43 and 1.54 (traced-colorado-4096
 //! 1.08 → 1.14): the fills now come more often from appalachians and yangshuo, whose
 //! power at 2–6 cells over 8–32 is 3.4 and 4.4 times karakoram's (the sixteen sources'
-//! own ratios span 0.0075–0.062, a factor of eight).
+//! own ratios span 0.0075–0.062, a factor of eight). Most of that rise was a hole in
+//! the band between the two levels, which `base_surface::DETAIL_KEPT_BANDS` closed:
+//! 1.07 and 1.12 with it.
 
 use ridgeline_terrain::costs::{noise_variances, patch_relief_ln};
 use ridgeline_terrain::feature_extraction::FeatureGraph;
