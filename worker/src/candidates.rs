@@ -142,30 +142,37 @@ pub fn featureless_patches(h: &Grid<f32>, patch: usize) -> Vec<FeaturelessPatch>
         v.dedup();
         v
     };
-    let mut windows: Vec<FeaturelessPatch> = Vec::new();
+    // every window's relief first; the noise statistics only for the ones kept
+    let mut windows: Vec<(u32, u32, Vec<f32>, f32)> = Vec::new();
     for &y in &axis(hh) {
         for &x in &axis(w) {
             let pixels = extract_patch(h, x, y, patch, Variant(0));
             if pixels.iter().any(|v| !v.is_finite()) {
                 continue;
             }
-            let (Some(noise), Some(relief)) = (noise_variances(&pixels, patch), patch_relief_ln(&pixels, patch)) else {
-                continue;
-            };
-            windows.push(FeaturelessPatch { x: x as u32, y: y as u32, pixels, noise, relief });
+            if let Some(relief) = patch_relief_ln(&pixels, patch) {
+                windows.push((x as u32, y as u32, pixels, relief));
+            }
         }
     }
     let n = windows.len();
-    if n <= FILL_POOL_PER_SOURCE {
-        return windows;
+    let mut keep = vec![n <= FILL_POOL_PER_SOURCE; n];
+    if n > FILL_POOL_PER_SOURCE {
+        let mut order: Vec<usize> = (0..n).collect();
+        order.sort_by(|&a, &b| windows[a].3.total_cmp(&windows[b].3).then(a.cmp(&b)));
+        for i in 0..FILL_POOL_PER_SOURCE {
+            keep[order[i * (n - 1) / (FILL_POOL_PER_SOURCE - 1)]] = true;
+        }
     }
-    let mut order: Vec<usize> = (0..n).collect();
-    order.sort_by(|&a, &b| windows[a].relief.total_cmp(&windows[b].relief).then(a.cmp(&b)));
-    let mut keep = vec![false; n];
-    for i in 0..FILL_POOL_PER_SOURCE {
-        keep[order[i * (n - 1) / (FILL_POOL_PER_SOURCE - 1)]] = true;
-    }
-    windows.into_iter().zip(keep).filter_map(|(p, k)| k.then_some(p)).collect()
+    windows
+        .into_iter()
+        .zip(keep)
+        .filter(|(_, k)| *k)
+        .filter_map(|((x, y, pixels, relief), _)| {
+            let noise = noise_variances(&pixels, patch)?;
+            Some(FeaturelessPatch { x, y, pixels, noise, relief })
+        })
+        .collect()
 }
 
 #[cfg(test)]
