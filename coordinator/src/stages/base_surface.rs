@@ -65,10 +65,17 @@ pub struct BaseSurface {
     /// A coarser level's terrain ([`BaseSurface::coarse_terrain`]): it already holds
     /// every wavelength down to about its cell, so a patch laid on it keeps only its
     /// detail below that scale, not its relief about a plane.
-    detail_sigma: Option<f32>,
-    /// On a coarser level's terrain, the σ (output cells) below which a patch laid on
-    /// it keeps its detail ([`BaseSurface::lay`]).
-    kept_sigma: Option<f32>,
+    detail: Option<DetailBand>,
+}
+
+/// The band between a coarser level's terrain and the patches laid on it, as σ of
+/// Gaussians in output cells.
+#[derive(Debug, Clone, Copy)]
+struct DetailBand {
+    /// The band between the levels ([`BaseSurface::detail_sigma`]).
+    sigma: f32,
+    /// A patch laid on the terrain keeps its detail below this ([`BaseSurface::lay`]).
+    kept: f32,
 }
 
 /// One pyramid level: values and which cells are known.
@@ -258,14 +265,14 @@ impl BaseSurface {
             levels.last_mut().expect("a level").pull(&coarse);
         }
         let top = levels.pop().expect("a level");
-        BaseSurface { cell, cw, ch, values: top.v, detail_sigma: None, kept_sigma: None }
+        BaseSurface { cell, cw, ch, values: top.v, detail: None }
     }
 
     /// A surface over a grid of `cw x ch` coarse cells of `cell` cells each, with the
     /// given values (row by row).
     pub fn from_grid(cell: usize, cw: usize, ch: usize, values: Vec<f32>) -> BaseSurface {
         assert_eq!(values.len(), cw * ch, "one value per coarse cell");
-        BaseSurface { cell: cell.max(1), cw, ch, values, detail_sigma: None, kept_sigma: None }
+        BaseSurface { cell: cell.max(1), cw, ch, values, detail: None }
     }
 
     /// A coarser level's terrain, `f` output cells a coarse cell, as the surface the
@@ -290,18 +297,14 @@ impl BaseSurface {
             }
             CoarseBand::Interpolated(band) => (bspline_coefficients(&values, cw, ch), band, band),
         };
-        let f32_f = f as f32;
-        BaseSurface {
-            detail_sigma: Some(sigma * f32_f),
-            kept_sigma: Some(kept * f32_f),
-            ..BaseSurface::from_grid(f, cw, ch, values)
-        }
+        let detail = DetailBand { sigma: sigma * f as f32, kept: kept * f as f32 };
+        BaseSurface { detail: Some(detail), ..BaseSurface::from_grid(f, cw, ch, values) }
     }
 
     /// On a coarser level's terrain, the σ (output cells) of the band between the
     /// levels: patches laid on it keep their detail below it.
     pub fn detail_sigma(&self) -> Option<f32> {
-        self.detail_sigma
+        self.detail.map(|d| d.sigma)
     }
 
     /// The grid's size in coarse cells (columns, rows).
@@ -339,8 +342,8 @@ impl BaseSurface {
     /// best-fit plane replaced by it ([`on_base`]); on a coarser level's terrain, the
     /// candidate's detail below that level's scale added to it ([`detail_on`]).
     pub fn lay(&self, pixels: &[f32], under: &[f32]) -> Vec<f32> {
-        match self.kept_sigma {
-            Some(sigma) => detail_on(pixels, under, sigma),
+        match self.detail {
+            Some(d) => detail_on(pixels, under, d.kept),
             None => on_base(pixels, under),
         }
     }

@@ -116,12 +116,13 @@
 //! search cannot leave under those rules (within [`SEARCH_PATCHES`] patches of its
 //! pit, then [`FAR_SEARCH_PATCHES`], then anywhere) is left as it is and counted;
 //! so are depressions shallower than [`MIN_DEPTH_M`] (real DEMs keep such pits). The
-//! search runs on the depression-filled terrain (`solvers::hydrology`), pits in order of height, in passes until none is left or a
-//! pass breaches nothing; a pass after the first takes every cell without a lower
-//! neighbour, with its depth from a flood out of that cell alone instead of flooding
-//! the whole terrain again (mixed-1024: the stage took 0.37 s with four full floods,
-//! 0.23 to 0.26 s so). The breaches are sequential and ordered by cell index (only
-//! the scan for a pass's pits runs by rows in parallel, and lists them in index order):
+//! search runs on the depression-filled terrain (`solvers::hydrology`), pits in order
+//! of height, in passes until none is left or a pass breaches nothing; a pass after
+//! the first takes every cell without a lower neighbour, with its depth from a flood
+//! out of that cell alone instead of flooding the whole terrain again (mixed-1024:
+//! the stage took 0.37 s with four full floods, 0.23 to 0.26 s so). The breaches are
+//! sequential and ordered by cell index (only the scan for a pass's pits runs by rows
+//! in parallel, and lists them in index order):
 //! the same bytes on every thread count (the searches' maps are rustc-hash's, whose
 //! hash of a cell index is fixed, kept from one search to the next; they are only
 //! looked up, never iterated). Flooding by traced slopes, the searches' maps kept and
