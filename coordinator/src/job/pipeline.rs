@@ -227,7 +227,16 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
         }
         (form, _) => (form, None, None, None),
     };
-    let base = form.as_ref().map(|f| &f.target);
+    // the surface the output level lays its patches on: on the large-scale target they
+    // keep their own fall along its way down (`BaseSurface::keeping_falls`), except on
+    // a tileable terrain, which has no border to fall to (kept, the falls towards the
+    // border left wrap-around steps 1.7 times those inside on the wrap test's terrain);
+    // a coarse level's terrain takes their detail alone
+    let base = form.as_ref().map(|f| match set.wrap {
+        true => f.target.clone(),
+        false => f.target.clone().keeping_falls(),
+    });
+    let base = base.as_ref();
     // the shards the output level is made from
     let level_shards = fine.as_ref().map_or(first_shards, |(s, _)| s);
 

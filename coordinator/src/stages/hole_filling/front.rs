@@ -24,7 +24,9 @@
 //! **Levels across a hole.** A fill is merged with its own best-fit plane replaced by
 //! the base surface (`base_surface`: a smooth membrane over the holes, fixed before
 //! the first fill), so the candidate's tilt does not carry its front's level across
-//! the hole; the shards still rank candidates on the window as it is. Measured on a
+//! the hole (on the output level's target it keeps the part of that tilt that falls
+//! along the target's way down: `base_surface`, "The fall kept"); the shards still
+//! rank candidates on the window as it is. Measured on a
 //! 2048² sketch (the straight-line score: the worst 256-cell stretch of a row or
 //! column in mean |second difference across it| against the median stretch; real
 //! DEMs score 1.7 to 4): with only the mean offset, fronts that met along a tile's

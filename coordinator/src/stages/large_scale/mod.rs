@@ -71,7 +71,8 @@ pub use hold::{anchor, hold_range, hold_to_coarse, ANCHOR_SIGMA_PATCHES, COARSE_
 /// terrain last (`drainage`), and 0.9989 drain to the border. (Keeping each
 /// fill's own tilt instead took sparse-1024's closed cells to 5.1%, but its levels
 /// walked: its highest cell 4,637 → 7,796 m, the landform distance 0.095 → 0.157;
-/// held to the target above one or two patches, 12.1% and 7.0%.)
+/// held to the target above one or two patches, 12.1% and 7.0%. The part of it that
+/// falls along the target's way down is kept: `base_surface`, "The fall kept".)
 pub const DRAINAGE_BASE_RISE: f32 = 1.0;
 
 /// A stroke of width `w` shapes a landform of about this many times `w` across.
