@@ -78,6 +78,16 @@ pub const DETAIL_BAND: f32 = 2.0;
 /// points more of the cells (11.83% and 11.34%).
 pub const DETAIL_KEPT_BANDS: f32 = 2.0;
 
+/// A patch laid on the target keeps its fall along the target's way down up to this
+/// many times the target's own fall there ([`downstream_tilt`]). Uncapped, a steep
+/// source's fill kept a tilt many times its neighbours', and showed in a hillshade as
+/// a facet with straight edges: the worst 256-cell stretch of a row or column in mean
+/// |second difference| across it against the median stretch (real DEMs 1.7 to 4)
+/// scored 4.27 on lambda-valleys-1024 (seed 3), 2.62 capped at 3 times, 2.11 at
+/// once; at once the cells the conditioning lowered fell about half as far (sparse-1024
+/// 7.48 → 5.75%, uncapped 4.50%, at 3 times 4.90%).
+pub const FALL_CAP_SLOPES: f64 = 3.0;
+
 /// Jacobi sweeps over the unknown cells at each pyramid level.
 const SWEEPS: usize = 24;
 
@@ -497,8 +507,9 @@ fn plane_gradient(pixels: &[f32]) -> (f64, f64) {
 
 /// The part of a patch's tilt (height per cell, x and y) that a lay on `base` keeps:
 /// its component along the base's own way down (the direction of steepest descent of
-/// the base's best-fit plane over the patch), where the patch falls that way; nothing
-/// where it rises that way or the base is level.
+/// the base's best-fit plane over the patch), where the patch falls that way, at most
+/// [`FALL_CAP_SLOPES`] times the base's own fall; nothing where it rises that way or
+/// the base is level.
 pub fn downstream_tilt(pixels: &[f32], base: &[f32]) -> (f64, f64) {
     let (gx, gy) = plane_gradient(pixels);
     let (bx, by) = plane_gradient(base);
@@ -507,7 +518,7 @@ pub fn downstream_tilt(pixels: &[f32], base: &[f32]) -> (f64, f64) {
         return (0.0, 0.0);
     }
     let (ux, uy) = (-bx / nb, -by / nb);
-    let kept = (gx * ux + gy * uy).min(0.0);
+    let kept = (gx * ux + gy * uy).min(0.0).max(-FALL_CAP_SLOPES * nb);
     (kept * ux, kept * uy)
 }
 
@@ -684,7 +695,7 @@ mod tests {
             400.0 * (1.0 - u).powi(2) + 6.0 * (y as f32 - 15.5).abs()
         };
         let pixels: Vec<f32> = (0..p * p).map(|k| valley(k % p, k / p)).collect();
-        // a target falling 1 m a cell along x, and one rising so
+        // targets falling or rising along x by so many metres a cell
         let target = |fall: f32| (0..p * p).map(|k| 1000.0 - fall * (k % p) as f32).collect::<Vec<f32>>();
         let deepest_pit = |laid: &[f32]| {
             let h = Heightfield::from_vec(p, p, laid.to_vec());
@@ -692,7 +703,7 @@ mod tests {
         };
         // its best-fit plane replaced by the target, the floor's middle lies below both
         // ends: a pit tens of metres deep
-        let falling = target(1.0);
+        let falling = target(5.0);
         let plane_only = on_base(&pixels, &falling, false);
         assert!(deepest_pit(&plane_only) > 20.0, "{}", deepest_pit(&plane_only));
         // keeping its fall along the target's way down, it drains
@@ -701,6 +712,10 @@ mod tests {
         // its relief about its plane and its mean level are the same either way
         let mean = |v: &[f32]| v.iter().map(|&z| z as f64).sum::<f64>() / v.len() as f64;
         assert!((mean(&kept) - mean(&plane_only)).abs() < 1e-2);
+        // on a gentler target it keeps at most three times the target's own fall (the
+        // valley's plane falls 12.9 m a cell)
+        let (tx, ty) = downstream_tilt(&pixels, &target(1.0));
+        assert!((tx + FALL_CAP_SLOPES).abs() < 1e-3 && ty.abs() < 1e-3, "{tx} {ty}");
         // on a target rising that way, nothing of its fall is kept
         let rising = target(-1.0);
         assert_eq!(on_base(&pixels, &rising, true), on_base(&pixels, &rising, false));
