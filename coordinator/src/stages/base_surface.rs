@@ -31,21 +31,24 @@
 //! the part of its tilt that falls along the target's own way down
 //! ([`downstream_tilt`]; none where it rises that way), so its valleys fall the way
 //! the large-scale form drains, and the level still walks no further than the target
-//! descends. On the seven 1024² pairs of `scripts/form-bench.py` (seed 3) the cells
-//! the synthesis left closed fell from 12.8% to 7.6% (sparse-1024), 15.5 → 9.4%
-//! (mixed-1024), 9.6 → 7.4% (small-range-512), 20.0 → 18.9% (lambda-valleys-1024),
-//! 22.0 → 19.8% (traced-norway-1024), 20.6 → 19.7% (traced-rockies-1024) and 18.9 →
-//! 19.4% (traced-alaska-1024), and the cells the conditioning lowered on all seven
-//! (7.48 → 4.50%, 7.94 → 5.51%, 5.59 → 4.37%, 9.42 → 7.86%, 11.22 → 10.09%,
-//! 11.03 → 10.61%, 11.83 → 10.47%); at seed 4, on six of them, 7.41 → 4.91%,
-//! 8.18 → 5.51%, 5.73 → 4.06%, 9.09 → 8.20%, 11.50 → 10.67%, 12.23 → 10.02%.
-//! Adherence stayed at or above 0.986, ridge above the valleys' median at or above
-//! 0.981; the landform distance moved −0.012 to +0.026 (sparse-1024 0.050 → 0.076) and
-//! the roughness ratio rose on the traced pairs (traced-rockies-1024 0.95 → 1.10 at
-//! seed 3, 0.94 → 1.11 at seed 4), within the real DEMs' spread. The deepest cut grew
-//! on some (mixed-1024 671 → 1,110 m at seed 4). The whole tilt kept instead walked the
-//! levels (sparse-1024's highest cell reached its sources' highest, 8,837 m; ridge
-//! above the valleys' median 0.865 on mixed-1024), and held back to the target above
+//! descends (the fall kept is at most [`FALL_CAP_SLOPES`] times the target's own). On
+//! the seven 1024² pairs of `scripts/form-bench.py` (seed 3) the cells the synthesis
+//! left closed fell from 12.8% to 7.5% (sparse-1024), 15.5 → 10.3% (mixed-1024), 9.6
+//! → 6.3% (small-range-512), 20.0 → 17.0% (lambda-valleys-1024), 22.0 → 20.5%
+//! (traced-norway-1024) and 20.6 → 20.1% (traced-rockies-1024), and rose 18.9 →
+//! 19.4% on traced-alaska-1024; the cells the conditioning lowered fell on all seven
+//! (7.48 → 4.90%, 7.94 → 5.52%, 5.59 → 4.25%, 9.42 → 8.25%, 11.22 → 10.31%, 11.03 →
+//! 10.66%, 11.83 → 10.20%), and at seed 4 on six of them (sparse-1024 7.41 → 5.32%,
+//! mixed-1024 8.18 → 5.72%, small-range-512 5.72 → 4.07%, lambda-valleys-1024 9.09 →
+//! 8.34%, traced-rockies-1024 11.50 → 10.45%, traced-alaska-1024 12.23 → 9.79%).
+//! Adherence stayed at or above 0.983, ridge above the valleys' median at or above
+//! 0.980; the landform distance moved −0.008 to +0.028 (sparse-1024 0.050 → 0.078 at
+//! seed 3) and the roughness ratio rose on the traced pairs (traced-rockies-1024 0.95
+//! → 1.11 at seed 3, 0.94 → 1.08 at seed 4; traced-alaska-1024 1.31 → 1.47), within
+//! the real DEMs' spread. The deepest cut grew on the traced pairs (traced-alaska-1024
+//! 2,046 → 2,949 m at seed 3). The whole tilt kept instead walked the levels
+//! (sparse-1024's highest cell reached its sources' highest, 8,837 m; ridge above the
+//! valleys' median 0.865 on mixed-1024), and held back to the target above
 //! one or two patches it closed as much as before (mixed-1024 13.8%). A coarse level
 //! keeps to the target's plane (see `keeping_falls`); its output level lays the
 //! patches' detail alone ([`detail_on`]), as before.
@@ -390,8 +393,9 @@ impl BaseSurface {
     /// This surface, with the patches laid on it keeping their own fall along its way
     /// down ([`downstream_tilt`]): the output level's large-scale target. (A coarse
     /// level's fills keep to the target's plane: there, at a kilometre of relief a
-    /// patch, the falls kept added to the straight trenches of a 4096² job's output,
-    /// 18 → 36 on massif-4096 at seed 3, and to the cells the conditioning lowered.)
+    /// patch, the falls kept (uncapped) added to the straight trenches of a 4096² job's
+    /// output, 18 → 36 on massif-4096 at seed 3, and to the cells the conditioning
+    /// lowered, 11.83 → 12.33% on sparse-4096.)
     pub fn keeping_falls(self) -> BaseSurface {
         BaseSurface { falls: true, ..self }
     }
