@@ -65,7 +65,7 @@ use super::stage_runner::StageRunner;
 use super::SynthError;
 use crate::canvas::Canvas;
 use crate::progress::Stage;
-use crate::stages::base_surface::{CoarseBand, DETAIL_BAND};
+use crate::stages::base_surface::{BaseSurface, CoarseBand, DETAIL_BAND};
 use crate::stages::coarse_level::{self, CoarseJob, CoarseLevel, FormSources};
 use crate::stages::detail_level::{self, DetailPlan, DetailStats};
 use crate::stages::drainage::{breach_under_sketch, Hybrid};
@@ -295,10 +295,14 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
         };
         let fill = FillSettings { level: OUTPUT_LEVEL, seed: set.seed, base, form: form_sources.as_ref() };
         let filled = fill_holes(&mut canvas, level_shards, &fill, cx.pool, &on_fill, cx.cancel)?;
-        // on a coarse level's terrain, the fills' levels held to it above its band
+        // on a coarse level's terrain, the fills' levels held to it above its band; on
+        // the target, where the patches kept their falls, held to it above a few patches
         let held = match (&form, &form_sources) {
-            (Some(f), Some(_)) => cx.install(|| large_scale::hold_to_coarse(&mut canvas.heights, &f.target)),
-            _ => 0.0,
+            (Some(f), Some(_)) => (cx.install(|| large_scale::hold_to_coarse(&mut canvas.heights, &f.target)), 0.0),
+            (Some(f), None) if base.is_some_and(BaseSurface::lays_falls) => {
+                (0.0, cx.install(|| large_scale::hold_falls(&mut canvas.heights, &f.target, p)))
+            }
+            _ => (0.0, 0.0),
         };
         // a detail level's generator: its detail, once every cell is filled, scaled by
         // how rough the coarse terrain is (`detail_level::modulate`); detail from fine
@@ -311,7 +315,7 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
         };
         Ok((filled, modulation, held))
     })?;
-    let (filling, modulation, held_to_coarse_m) = filling;
+    let (filling, modulation, (held_to_coarse_m, falls_held_m)) = filling;
     if let Some((_, stats)) = fine.as_mut() {
         stats.modulation = modulation;
     }
@@ -389,7 +393,16 @@ pub fn synthesize(run: &mut StageRunner, job: JobInputs) -> Result<(SynthOutput,
             Ok(cx.install(|| {
                 let drainage = breach_under_sketch(&mut canvas.heights, &sk, p, false, Hybrid::FillThenBreach);
                 let range_change_m = hold_range(&mut canvas.heights, form.range, form.stretch);
-                Conditioning { drainage, range: form.range, range_change_m, form: FormStats { held_to_coarse_m, ..form.stats } }
+                Conditioning {
+                    drainage,
+                    range: form.range,
+                    range_change_m,
+                    form: FormStats {
+                        held_to_coarse_m,
+                        held_to_target_m: form.stats.held_to_target_m.max(falls_held_m),
+                        ..form.stats
+                    },
+                }
             }))
         })?),
         None => None,

@@ -400,6 +400,12 @@ impl BaseSurface {
         BaseSurface { falls: true, ..self }
     }
 
+    /// Whether a patch laid on this surface keeps its fall (a smooth surface keeping
+    /// falls; a coarser level's terrain takes the patches' detail alone).
+    pub fn lays_falls(&self) -> bool {
+        self.falls && self.detail.is_none()
+    }
+
     /// The surface at global cell (x, y): the uniform cubic B-spline over the coarse
     /// grid (twice continuously differentiable, so a hillshade shows no facets along
     /// the coarse cells' edges, as a bilinear surface would).

@@ -46,7 +46,7 @@ use ridgeline_terrain::{FeatureKind, PerKind};
 use std::collections::VecDeque;
 
 mod hold;
-pub use hold::{anchor, hold_range, hold_to_coarse, ANCHOR_SIGMA_PATCHES, COARSE_HOLD_BANDS};
+pub use hold::{anchor, hold_falls, hold_range, hold_to_coarse, ANCHOR_SIGMA_PATCHES, COARSE_HOLD_BANDS, FALL_HOLD_PATCHES};
 
 /// The drainage base rises from the border by this many times the library's relief at
 /// a quarter of the output's side over that distance (a quarter of that rate along
@@ -148,7 +148,9 @@ pub struct FormStats {
     pub base_level: f32,
     pub range: [f32; 2],
     /// On a coarse level, the largest change that held its terrain to the target above
-    /// a few patches ([`anchor`]), metres; 0 on a single level.
+    /// a few patches ([`anchor`]); on a single level whose patches kept their falls,
+    /// the largest change that held it to the target above [`FALL_HOLD_PATCHES`]
+    /// patches ([`hold_falls`]); metres, 0 elsewhere.
     pub held_to_target_m: f32,
     /// On a coarse level's terrain, the largest change that held the output level to
     /// it above twice the band between the levels ([`hold_to_coarse`]), metres; 0
