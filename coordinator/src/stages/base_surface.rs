@@ -31,23 +31,25 @@
 //! the part of its tilt that falls along the target's own way down
 //! ([`downstream_tilt`]; none where it rises that way), so its valleys fall the way
 //! the large-scale form drains, and the level still walks no further than the target
-//! descends (the fall kept is at most [`FALL_CAP_SLOPES`] times the target's own). On
-//! the seven 1024² pairs of `scripts/form-bench.py` (seed 3) the cells the synthesis
-//! left closed fell from 12.8% to 7.5% (sparse-1024), 15.5 → 10.3% (mixed-1024), 9.6
-//! → 6.3% (small-range-512), 20.0 → 17.0% (lambda-valleys-1024), 22.0 → 20.5%
-//! (traced-norway-1024) and 20.6 → 20.1% (traced-rockies-1024), and rose 18.9 →
-//! 19.4% on traced-alaska-1024; the cells the conditioning lowered fell on all seven
-//! (7.48 → 4.90%, 7.94 → 5.52%, 5.59 → 4.25%, 9.42 → 8.25%, 11.22 → 10.31%, 11.03 →
-//! 10.66%, 11.83 → 10.20%), and at seed 4 on six of them (sparse-1024 7.41 → 5.32%,
-//! mixed-1024 8.18 → 5.72%, small-range-512 5.72 → 4.07%, lambda-valleys-1024 9.09 →
-//! 8.34%, traced-rockies-1024 11.50 → 10.45%, traced-alaska-1024 12.23 → 9.79%).
-//! Adherence stayed at or above 0.983, ridge above the valleys' median at or above
-//! 0.980; the landform distance moved −0.008 to +0.028 (sparse-1024 0.050 → 0.078 at
-//! seed 3) and the roughness ratio rose on the traced pairs (traced-rockies-1024 0.95
-//! → 1.11 at seed 3, 0.94 → 1.08 at seed 4; traced-alaska-1024 1.31 → 1.47), within
-//! the real DEMs' spread. The deepest cut grew on the traced pairs (traced-alaska-1024
-//! 2,046 → 2,949 m at seed 3). The whole tilt kept instead walked the levels
-//! (sparse-1024's highest cell reached its sources' highest, 8,837 m; ridge above the
+//! descends (the fall kept is at most [`FALL_CAP_SLOPES`] times the target's own, and
+//! the terrain is held to the target above a few patches once filled:
+//! `large_scale::hold_falls`). On the seven 1024² pairs of `scripts/form-bench.py`
+//! (seed 3) the cells the synthesis left closed fell from 12.8% to 8.4%
+//! (sparse-1024), 15.5 → 10.9% (mixed-1024), 9.6 → 6.4% (small-range-512), 20.0 →
+//! 17.5% (lambda-valleys-1024), 22.0 → 20.9% (traced-norway-1024) and 20.6 → 20.1%
+//! (traced-rockies-1024), and rose 18.9 → 19.7% on traced-alaska-1024; the cells the
+//! conditioning lowered fell on all seven (7.48 → 5.26%, 7.94 → 6.05%, 5.59 → 4.36%,
+//! 9.42 → 8.29%, 11.22 → 10.39%, 11.03 → 10.51%, 11.83 → 10.64%), and at seed 4 on
+//! six of them (sparse-1024 7.41 → 5.54%, mixed-1024 8.18 → 6.00%, small-range-512
+//! 5.72 → 4.14%, lambda-valleys-1024 9.09 → 8.12%, traced-rockies-1024 11.50 →
+//! 10.51%, traced-alaska-1024 12.23 → 9.95%). Adherence stayed at or above 0.984,
+//! ridge above the valleys' median at or above 0.987; the landform distance moved
+//! −0.008 to +0.024 (sparse-1024 0.050 → 0.074 at seed 3) and the roughness ratio rose
+//! on the traced pairs (traced-rockies-1024 0.95 → 1.13 at seed 3, 0.94 → 1.07 at seed
+//! 4; traced-alaska-1024 1.31 → 1.48), within the real DEMs' spread. The deepest cut
+//! grew on the traced pairs (traced-alaska-1024 2,046 → 2,945 m at seed 3). The whole
+//! tilt kept instead walked the levels (sparse-1024's highest cell reached its
+//! sources' highest, 8,837 m; ridge above the
 //! valleys' median 0.865 on mixed-1024), and held back to the target above
 //! one or two patches it closed as much as before (mixed-1024 13.8%). A coarse level
 //! keeps to the target's plane (see `keeping_falls`); its output level lays the
@@ -88,7 +90,7 @@ pub const DETAIL_KEPT_BANDS: f32 = 2.0;
 /// |second difference| across it against the median stretch (real DEMs 1.7 to 4)
 /// scored 4.27 on lambda-valleys-1024 (seed 3), 2.62 capped at 3 times, 2.11 at
 /// once; at once the cells the conditioning lowered fell about half as far (sparse-1024
-/// 7.48 → 5.75%, uncapped 4.50%, at 3 times 4.90%).
+/// 7.48 → 5.75%, uncapped 4.50%, at 3 times 4.90%; before `large_scale::hold_falls`).
 pub const FALL_CAP_SLOPES: f64 = 3.0;
 
 /// Jacobi sweeps over the unknown cells at each pyramid level.
