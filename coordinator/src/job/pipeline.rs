@@ -21,6 +21,10 @@
 //!    non-interacting user patches (Crause 2015, figure 6.9);
 //! 6. [`fill_holes`] — featureless patches, scored on the shards
 //!    (`ShardScorer::score_fill`), tile by tile in colour phases, until no cell is empty;
+//!    on the target, whose patches (stages 5 and 6) keep their fall along its way down
+//!    (`BaseSurface::keeping_falls`), the terrain is then held to it above a few patches
+//!    ([`large_scale::hold_falls`]); on a coarse level's terrain, to that terrain above
+//!    its band ([`large_scale::hold_to_coarse`]);
 //! 7. [`fit_to_sketch`] — a last smooth deformation puts crests on ridge lines and
 //!    floors on valley lines (`--no-sketch-fit` skips it);
 //! 8. [`regions`] — with a region map (`--regions`), stages 5 to 7 are the largest

@@ -78,7 +78,7 @@ pub fn hold_to_coarse(h: &mut Heightfield, coarse: &BaseSurface) -> f32 {
 pub const FALL_HOLD_PATCHES: f32 = 4.0;
 
 /// Holds the output level's terrain `h` to the large-scale target above
-/// [`FALL_HOLD_PATCHES`] patches ([`anchor_above`]) where its patches kept their fall
+/// [`FALL_HOLD_PATCHES`] patches (`anchor_above`) where its patches kept their fall
 /// along the target's way down (`BaseSurface::keeping_falls`). Each patch is levelled
 /// by its overlap, so a fill front climbing from a valley towards a ridge rose by the
 /// falls it kept, up to four times as steeply as the target, and overshot: on
