@@ -490,7 +490,7 @@ pub fn on_base(pixels: &[f32], base: &[f32], keep_fall: bool) -> Vec<f32> {
     let c = (p as f64 - 1.0) / 2.0;
     let mean = pixels.iter().map(|&v| v as f64).sum::<f64>() / pixels.len() as f64;
     let (gx, gy) = plane_gradient(pixels);
-    let (tx, ty) = if keep_fall { downstream_tilt(pixels, base) } else { (0.0, 0.0) };
+    let (tx, ty) = if keep_fall { downstream_tilt((gx, gy), base) } else { (0.0, 0.0) };
     let (gx, gy) = (gx - tx, gy - ty);
     pixels
         .iter()
@@ -517,13 +517,12 @@ fn plane_gradient(pixels: &[f32]) -> (f64, f64) {
     (sx / sxx, sy / sxx)
 }
 
-/// The part of a patch's tilt (height per cell, x and y) that a lay on `base` keeps:
-/// its component along the base's own way down (the direction of steepest descent of
-/// the base's best-fit plane over the patch), where the patch falls that way, at most
-/// [`FALL_CAP_SLOPES`] times the base's own fall; nothing where it rises that way or
-/// the base is level.
-pub fn downstream_tilt(pixels: &[f32], base: &[f32]) -> (f64, f64) {
-    let (gx, gy) = plane_gradient(pixels);
+/// The part of a patch's tilt (its best-fit plane's gradient `(gx, gy)`, height per
+/// cell) that a lay on `base` keeps: its component along the base's own way down (the
+/// direction of steepest descent of the base's best-fit plane over the patch), where
+/// the patch falls that way, at most [`FALL_CAP_SLOPES`] times the base's own fall;
+/// nothing where it rises that way or the base is level.
+pub fn downstream_tilt((gx, gy): (f64, f64), base: &[f32]) -> (f64, f64) {
     let (bx, by) = plane_gradient(base);
     let nb = (bx * bx + by * by).sqrt();
     if nb <= 1e-6 {
@@ -726,7 +725,7 @@ mod tests {
         assert!((mean(&kept) - mean(&plane_only)).abs() < 1e-2);
         // on a gentler target it keeps at most three times the target's own fall (the
         // valley's plane falls 12.9 m a cell)
-        let (tx, ty) = downstream_tilt(&pixels, &target(1.0));
+        let (tx, ty) = downstream_tilt(plane_gradient(&pixels), &target(1.0));
         assert!((tx + FALL_CAP_SLOPES).abs() < 1e-3 && ty.abs() < 1e-3, "{tx} {ty}");
         // on a target rising that way, nothing of its fall is kept
         let rising = target(-1.0);
