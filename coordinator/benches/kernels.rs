@@ -93,7 +93,15 @@ fn fill_targets(sources: &[ridgeline_worker::Source]) -> Vec<FillQuery> {
                 }
             }
             let relief = ridgeline_terrain::costs::finite_std(&full).max(1.0);
-            FillQuery { id: i, samples, relief, noise: noise_variances(&full, PATCH), coherence: Vec::new(), avoid: Vec::new() }
+            FillQuery {
+                id: i,
+                samples,
+                relief,
+                noise: noise_variances(&full, PATCH),
+                coherence: Vec::new(),
+                avoid: Vec::new(),
+                inherit: None,
+            }
         })
         .collect()
 }

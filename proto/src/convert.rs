@@ -6,7 +6,7 @@ use crate::v1;
 use ridgeline_terrain::costs::NOISE_LEVELS;
 use ridgeline_terrain::feature_kind::{FeatureKind, PerKind};
 use ridgeline_terrain::height_stats::HeightStats;
-use ridgeline_terrain::patch_geometry::{ProfilePath, Variant};
+use ridgeline_terrain::patch_geometry::{ProfilePath, Variant, FEATURELESS_VARIANTS};
 use ridgeline_terrain::shard::{
     BestSet, CandidateRef, FillBestSet, FillCandidate, FillQuery, LevelSpec, ScoredCandidate, SkippedExemplar, SourceInfo,
     UserPatchQuery, MAX_LEVELS,
@@ -113,6 +113,7 @@ pub fn fill_target_to_wire(q: &FillQuery) -> v1::FillTarget {
         coherence_source: q.coherence.iter().map(|c| c.0).collect(),
         coherence_share: q.coherence.iter().map(|c| c.1).collect(),
         avoid: q.avoid.iter().flat_map(|a| [a.0, a.1, a.2]).collect(),
+        inherit: q.inherit.map(|i| vec![i.0, i.1, i.2, i.3 as u32]).unwrap_or_default(),
     }
 }
 
@@ -139,6 +140,11 @@ pub fn fill_target_from_wire(t: v1::FillTarget, patch: usize) -> Result<FillQuer
     if t.coherence_source.len() != t.coherence_share.len() || !t.avoid.len().is_multiple_of(3) {
         return bad("coherence or avoid lists are malformed");
     }
+    let inherit = match t.inherit[..] {
+        [] => None,
+        [s, x, y, v] if (v as usize) < FEATURELESS_VARIANTS.len() => Some((s, x, y, v as u8)),
+        _ => return bad("inherit needs a source, a position and a featureless variant index"),
+    };
     Ok(FillQuery {
         id: t.id,
         samples: t.sample_index.into_iter().zip(t.sample_value).collect(),
@@ -146,6 +152,7 @@ pub fn fill_target_from_wire(t: v1::FillTarget, patch: usize) -> Result<FillQuer
         noise,
         coherence: t.coherence_source.into_iter().zip(t.coherence_share).collect(),
         avoid: t.avoid.chunks_exact(3).map(|c| (c[0], c[1], c[2])).collect(),
+        inherit,
     })
 }
 
@@ -324,8 +331,15 @@ mod tests {
             noise: Some([0.1, 0.2, 0.3]),
             coherence: vec![(2, 0.75)],
             avoid: vec![(2, 10, 20)],
+            inherit: Some((2, 30, 40, 5)),
         };
         assert_eq!(fill_target_from_wire(fill_target_to_wire(&t), 8).unwrap(), t);
+        let mut w = fill_target_to_wire(&t);
+        w.inherit[3] = 6;
+        assert!(fill_target_from_wire(w, 8).is_err(), "no featureless variant 6");
+        let mut w = fill_target_to_wire(&t);
+        w.inherit.pop();
+        assert!(fill_target_from_wire(w, 8).is_err());
         let mut w = fill_target_to_wire(&t);
         w.sample_index[1] = 64;
         assert!(fill_target_from_wire(w, 8).is_err(), "sample outside an 8 x 8 patch");

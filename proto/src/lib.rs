@@ -14,11 +14,15 @@ pub mod v1 {
 /// exemplars of three kinds: stored DEM files, stored samples and generator recipes;
 /// 4 ranks hole fills with a relief term (`costs::ALPHA_R`): the messages are as in
 /// 3, but a worker of 3 would rank the same fill's candidates otherwise, and the
-/// terrain would depend on which worker held a shard.
-pub const PROTOCOL_VERSION: u32 = 4;
+/// terrain would depend on which worker held a shard; 5 scores a fill target's
+/// inherited window (`FillTarget.inherit`, fill layout 2), so a coordinator refuses a
+/// worker of 4 when it connects rather than at its first fill.
+pub const PROTOCOL_VERSION: u32 = 5;
 
-/// Layout version of the `FillRequest` / `FillReply` messages.
-pub const FILL_VERSION: u32 = 1;
+/// Layout version of the `FillRequest` / `FillReply` messages; 2 added a fill
+/// target's inherited window (`FillTarget.inherit`), which a worker of 1 would ignore
+/// and rank the fill's candidates otherwise.
+pub const FILL_VERSION: u32 = 2;
 
 pub mod convert;
 

@@ -29,6 +29,14 @@ pub const REPEAT_PENALTY: f32 = 2.0;
 /// source in the library.
 pub const BETA_C: f32 = 0.3;
 
+/// Weight of the inheritance bonus on a coarse level's terrain: the window that
+/// continues the coarse placement under a fill target (`FillQuery::inherit`: the same
+/// source, where the coarse patch's window lies at the finer cell size) costs this
+/// much less, so the detail laid on a coarse landform is, where its overlap allows,
+/// that landform's own (the coordinates of the coarser level inherited, as in
+/// Lefebvre and Hoppe 2005's pyramid synthesis).
+pub const BETA_I: f32 = 1.0;
+
 /// Weight of hole filling's relief term: a featureless candidate whose relief (its
 /// height's standard deviation about its best-fit plane, [`plane_relief_ln`]) differs
 /// from that of the target window's known cells by a factor r costs `ALPHA_R |ln r|`

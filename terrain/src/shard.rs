@@ -79,6 +79,12 @@ pub struct FillQuery {
     pub coherence: Vec<(u32, f32)>,
     /// Source regions placed within the repetition radius: (source, x, y).
     pub avoid: Vec<(u32, u32, u32)>,
+    /// On a coarse level's terrain, the window of the source that continues the coarse
+    /// placement under the target (source, x, y, index into `FEATURELESS_VARIANTS`):
+    /// scored too, with the inheritance bonus (`costs::BETA_I`), by the shard that
+    /// holds the source at this level.
+    #[serde(default)]
+    pub inherit: Option<(u32, u32, u32, u8)>,
 }
 
 /// A scored featureless candidate: identity, cost, and its pixels in the variant

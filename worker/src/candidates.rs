@@ -177,6 +177,22 @@ pub fn featureless_patches(h: &Grid<f32>, patch: usize) -> Vec<FeaturelessPatch>
         .collect()
 }
 
+/// The window of `h` centred on (x, y) as a featureless candidate (variant 0 pixels,
+/// noise and relief as the pool has them), if it lies inside `h` free of voids.
+pub fn window_at(h: &Grid<f32>, x: usize, y: usize, patch: usize) -> Option<FeaturelessPatch> {
+    let half = patch / 2;
+    if x < half || y < half || x + patch - half > h.width || y + patch - half > h.height {
+        return None;
+    }
+    let pixels = extract_patch(h, x, y, patch, Variant(0));
+    if pixels.iter().any(|v| !v.is_finite()) {
+        return None;
+    }
+    let relief = patch_relief_ln(&pixels, patch)?;
+    let noise = noise_variances(&pixels, patch)?;
+    Some(FeaturelessPatch { x: x as u32, y: y as u32, pixels, noise, relief })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -21,10 +21,12 @@
 //! are those of scoring every one whole (a test compares the two), for about a third
 //! of the sums.
 
+use crate::candidates::FeaturelessPatch;
 use crate::exemplar_store::Source;
 use rayon::prelude::*;
 use ridgeline_terrain::costs::{
-    jitter, noise_cost, plane_relief_ln, repeats, LaneSums, ALPHA_N, ALPHA_O, ALPHA_R, BETA_C, REPEAT_PENALTY, SEED_JITTER,
+    jitter, noise_cost, plane_relief_ln, repeats, LaneSums, ALPHA_N, ALPHA_O, ALPHA_R, BETA_C, BETA_I, REPEAT_PENALTY,
+    SEED_JITTER,
 };
 use ridgeline_terrain::float_order::{from_ordered_bits, ordered_bits};
 use ridgeline_terrain::shard::{FillBestSet, FillCandidate, FillQuery};
@@ -100,6 +102,55 @@ pub fn exact_cost(q: &FillQuery, prep: &Prepared, s: &Source, ci: usize, vi: usi
     cost_below(q, prep, s, ci, vi, seed, t, f32::INFINITY).unwrap_or(f32::INFINITY)
 }
 
+/// The target's inherited window (`FillQuery::inherit`), where this shard holds its
+/// source and the window lies inside it free of voids: scored like a pool candidate,
+/// in f64 on the CPU whatever the backend (so the bytes do not depend on it), less
+/// the inheritance bonus [`BETA_I`] and without the repetition penalty (the windows
+/// that continue one coarse placement lie next to each other in their source), and
+/// ranked among the backend's best-set, which keeps its `k` best.
+pub fn with_inherited(
+    sources: &[Source],
+    maps: &[Vec<u32>],
+    q: &FillQuery,
+    seed: u64,
+    k: usize,
+    patch: usize,
+    set: FillBestSet,
+) -> FillBestSet {
+    let Some((id, x, y, vi)) = q.inherit else { return set };
+    let Some(s) = sources.iter().find(|s| s.id == id) else { return set };
+    if set.entries.iter().any(|e| (e.source, e.x, e.y, e.variant) == (id, x, y, vi)) {
+        return set;
+    }
+    let Some(c) = crate::candidates::window_at(&s.heights, x as usize, y as usize, patch) else { return set };
+    // only the inherited variant's gather is needed
+    let prep = Prepared {
+        values: q.samples.iter().map(|s| s.1).collect(),
+        mapped: (0..maps.len())
+            .map(|v| match v == vi as usize {
+                true => q.samples.iter().map(|&(i, _)| maps[v][i as usize]).collect(),
+                false => Vec::new(),
+            })
+            .collect(),
+        relief: target_relief(q, patch * patch),
+    };
+    let t = Terms { noise: q.noise.map(|u| noise_cost(&u, &c.noise)).unwrap_or(0.0), coherence: coherence(q, id), repeat: 0.0 };
+    let Some(cost) = cost_within(q, &prep, id, &c, vi as usize, seed, &t, f32::INFINITY) else { return set };
+    let inherited = FillCandidate {
+        source: id,
+        x,
+        y,
+        variant: vi,
+        cost: cost - BETA_I,
+        pixels: maps[vi as usize].iter().map(|&m| c.pixels[m as usize]).collect(),
+    };
+    let mut entries = set.entries;
+    entries.push(inherited);
+    entries.sort_by(|a, b| a.cost.total_cmp(&b.cost).then((a.source, a.y, a.x, a.variant).cmp(&(b.source, b.y, b.x, b.variant))));
+    entries.truncate(k);
+    FillBestSet { target: set.target, entries }
+}
+
 /// The overlap term: the RMS of the differences about their mean, over the relief.
 fn overlap(sum: f64, sum2: f64, n: f64, relief: f32) -> f32 {
     ((sum2 / n - (sum / n) * (sum / n)).max(0.0)).sqrt() as f32 / relief
@@ -109,11 +160,10 @@ fn overlap(sum: f64, sum2: f64, n: f64, relief: f32) -> f32 {
 /// `+`, `−` or `×` by a non-negative weight, so the cost never falls as `co` rises
 /// (what [`cost_below`]'s bound relies on).
 #[inline]
-fn cost_of(prep: &Prepared, s: &Source, ci: usize, vi: usize, seed: u64, t: &Terms, co: f32) -> f32 {
-    let c = &s.featureless[ci];
+fn cost_of(prep: &Prepared, id: u32, c: &FeaturelessPatch, vi: usize, seed: u64, t: &Terms, co: f32) -> f32 {
     ALPHA_O * co + ALPHA_N * t.noise + relief_cost(prep.relief, c.relief) - BETA_C * t.coherence
         + t.repeat
-        + seed_jitter(seed, s.id, c.x, c.y, vi)
+        + seed_jitter(seed, id, c.x, c.y, vi)
 }
 
 /// Where [`cost_below`] checks its bound, in eighths of the samples: a candidate-variant
@@ -140,10 +190,25 @@ pub fn cost_below(
     t: &Terms,
     limit: f32,
 ) -> Option<f32> {
-    let (pixels, idx, values) = (&s.featureless[ci].pixels, &prep.mapped[vi], &prep.values);
+    cost_within(q, prep, s.id, &s.featureless[ci], vi, seed, t, limit)
+}
+
+/// [`cost_below`] of candidate `c` of source `id`.
+#[allow(clippy::too_many_arguments)]
+fn cost_within(
+    q: &FillQuery,
+    prep: &Prepared,
+    id: u32,
+    c: &FeaturelessPatch,
+    vi: usize,
+    seed: u64,
+    t: &Terms,
+    limit: f32,
+) -> Option<f32> {
+    let (pixels, idx, values) = (&c.pixels, &prep.mapped[vi], &prep.values);
     let n = q.samples.len().max(1) as f64;
     // the bound's cost without the overlap: a candidate that passes it is never summed
-    if cost_of(prep, s, ci, vi, seed, t, 0.0) > limit {
+    if cost_of(prep, id, c, vi, seed, t, 0.0) > limit {
         return None;
     }
     let chunks = idx.len() / 4;
@@ -168,7 +233,7 @@ pub fn cost_below(
             // candidate's level against the window's, keeps them alike)
             let lower = (sum2 - sum * sum / m) / n - 1e-10 * (1.0 + sum2 / m);
             let co = (lower.max(0.0)).sqrt() as f32 / q.relief;
-            if cost_of(prep, s, ci, vi, seed, t, co) > limit {
+            if cost_of(prep, id, c, vi, seed, t, co) > limit {
                 return None;
             }
         }
@@ -177,7 +242,7 @@ pub fn cost_below(
         acc.add(l, (pixels[i as usize] - v) as f64);
     }
     let (sum, sum2) = acc.total();
-    Some(cost_of(prep, s, ci, vi, seed, t, overlap(sum, sum2, n, q.relief)))
+    Some(cost_of(prep, id, c, vi, seed, t, overlap(sum, sum2, n, q.relief)))
 }
 
 /// Twin of the shader's `candidate_cost` (f32; the filter), given the seed's jitter.
@@ -378,7 +443,7 @@ mod tests {
         let sources = vec![source(0, vec![flat], p), source(1, vec![rough(8)], p)];
         let ground = rough(3);
         let samples: Vec<(u32, f32)> = (0..p * p).filter(|k| k % p < p / 2).map(|k| (k as u32, ground[k])).collect();
-        let q = FillQuery { id: 1, samples, relief: 58.0, noise: None, coherence: Vec::new(), avoid: Vec::new() };
+        let q = FillQuery { id: 1, samples, relief: 58.0, noise: None, coherence: Vec::new(), avoid: Vec::new(), inherit: None };
         let prep = prepare(&maps, &q);
         let t = prep.relief.expect("half a window known");
         assert!((t - 58f32.ln()).abs() < 0.2, "the ground's relief, about 58 m: {}", t.exp());
@@ -406,10 +471,55 @@ mod tests {
                     .map(|k| (k as u32, ground[k] + 300.0 * j as f32))
                     .collect();
                 let coherence = vec![(j as u32 % 4, 0.5)];
-                FillQuery { id: j as u32, samples, relief: 30.0, noise: None, coherence, avoid: Vec::new() }
+                FillQuery { id: j as u32, samples, relief: 30.0, noise: None, coherence, avoid: Vec::new(), inherit: None }
             })
             .collect();
         (sources, queries)
+    }
+
+    #[test]
+    fn the_inherited_window_is_scored_with_its_bonus_among_the_best() {
+        use ridgeline_terrain::patch_geometry::{extract_patch, Variant};
+        let (p, k, seed) = (16, 3, 2);
+        let (mut sources, _) = rough_case(p, seed);
+        let hash = |i: usize| ridgeline_terrain::costs::jitter(7, &[i as u64]);
+        sources[1].heights =
+            Grid::from_vec(64, 64, (0..64 * 64).map(|i| 900.0 + 300.0 * hash(i) + (i % 64) as f32 * 4.0).collect());
+        let maps = variant_maps(p);
+        // the target's known cells are the window at (30, 26) of source 1 in variant 3,
+        // 500 m higher (the overlap takes the mean out): no pool candidate matches it
+        let upright = extract_patch(&sources[1].heights, 30, 26, p, Variant(0));
+        let window: Vec<f32> = maps[3].iter().map(|&m| upright[m as usize]).collect();
+        let samples = (0..p * p).filter(|i| i % p < p / 2).map(|i| (i as u32, window[i] + 500.0)).collect();
+        let q = FillQuery {
+            id: 4,
+            samples,
+            relief: 40.0,
+            noise: None,
+            coherence: Vec::new(),
+            avoid: vec![(1, 30, 26)],
+            inherit: None,
+        };
+        let pool = best_fill_set(&sources, &maps, &q, seed, k, p);
+        let inherited = |inherit| {
+            let q = FillQuery { inherit, ..q.clone() };
+            with_inherited(&sources, &maps, &q, seed, k, p, best_fill_set(&sources, &maps, &q, seed, k, p))
+        };
+        let got = inherited(Some((1, 30, 26, 3)));
+        assert_eq!(got.entries.len(), k);
+        let first = &got.entries[0];
+        assert_eq!((first.source, first.x, first.y, first.variant), (1, 30, 26, 3));
+        assert_eq!(first.pixels, window, "the window in its variant, as a pool candidate's pixels are");
+        // a perfect overlap, the relief term, the bonus and no repetition penalty (the
+        // window is in `avoid`)
+        let own = crate::candidates::window_at(&sources[1].heights, 30, 26, p).unwrap().relief;
+        let want = relief_cost(target_relief(&q, p * p), own) + seed_jitter(seed, 1, 30, 26, 3) - BETA_I;
+        assert!((first.cost - want).abs() < 1e-4, "{} against {want}", first.cost);
+        assert_eq!(got.entries[1..], pool.entries[..k - 1], "the pool's best follow");
+        // a source this shard lacks, a window that leaves the source, no inheritance: the pool's
+        for inherit in [Some((9, 30, 26, 3)), Some((1, 4, 26, 3)), Some((1, 30, 60, 0)), None] {
+            assert_eq!(inherited(inherit), pool, "{inherit:?}");
+        }
     }
 
     #[test]
@@ -501,7 +611,7 @@ mod tests {
         // the target shows variant 3 of source 1's second patch, 500 m higher, on its left half
         let shown: Vec<f32> = maps[3].iter().map(|&m| target_src[m as usize] + 500.0).collect();
         let samples: Vec<(u32, f32)> = (0..p * p).filter(|k| k % p < p / 2).map(|k| (k as u32, shown[k])).collect();
-        let q = FillQuery { id: 9, samples, relief: 10.0, noise: None, coherence: Vec::new(), avoid: Vec::new() };
+        let q = FillQuery { id: 9, samples, relief: 10.0, noise: None, coherence: Vec::new(), avoid: Vec::new(), inherit: None };
         let set = best_fill_set(&sources, &maps, &q, 0, 3, p);
         assert_eq!(set.target, 9);
         assert_eq!(set.entries.len(), 3);

@@ -201,6 +201,11 @@ impl ShardScorer for InProcessShard {
         fill_scoring::validate(targets, lv.spec.patch).map_err(ShardError::BadRequest)?;
         let t = std::time::Instant::now();
         let sets = lv.backend.fill(&lv.sources, &lv.maps, targets, seed, k, lv.spec.patch);
+        let sets: Vec<FillBestSet> = sets
+            .into_iter()
+            .zip(targets)
+            .map(|(set, q)| fill_scoring::with_inherited(&lv.sources, &lv.maps, q, seed, k, lv.spec.patch, set))
+            .collect();
         let pool: u64 = lv.sources.iter().map(|s| s.featureless.len() as u64).sum();
         self.clock.fill(t.elapsed().as_secs_f64(), fill_samples(pool, targets));
         Ok(sets)
@@ -252,8 +257,15 @@ mod tests {
             for c in best {
                 assert_eq!(c.pixels, extract_patch(heights, c.cand.x as usize, c.cand.y as usize, spec.patch, c.cand.variant));
             }
-            let fill =
-                FillQuery { id: 0, samples: vec![(0, 1500.0)], relief: 10.0, noise: None, coherence: vec![], avoid: vec![] };
+            let fill = FillQuery {
+                id: 0,
+                samples: vec![(0, 1500.0)],
+                relief: 10.0,
+                noise: None,
+                coherence: vec![],
+                avoid: vec![],
+                inherit: None,
+            };
             let f = shard.score_fill(level, &[fill], 1, 2).unwrap();
             assert!(!f[0].entries.is_empty() && f[0].entries.iter().all(|c| c.pixels.len() == spec.patch * spec.patch));
         }

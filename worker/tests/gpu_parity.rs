@@ -222,6 +222,7 @@ fn fill_kernel_matches_its_cpu_twin() {
                 noise: (t % 3 != 0).then(|| s.featureless[(c + 1) % 30].noise),
                 coherence: if t % 2 == 0 { vec![(2, 0.4), (5, 0.1)] } else { Vec::new() },
                 avoid: if t % 4 == 1 { vec![(s.id, s.featureless[c].x + 3, s.featureless[c].y)] } else { Vec::new() },
+                inherit: None,
             }
         })
         .collect();

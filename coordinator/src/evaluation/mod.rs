@@ -58,7 +58,34 @@ pub struct PlacedPatch {
     pub src_y: u32,
     pub cx: usize,
     pub cy: usize,
+    /// The window's variant (`patch_geometry::Variant`; 0 in a provenance written
+    /// before it was recorded).
+    #[serde(default)]
+    pub variant: u8,
 }
+
+impl PlacedPatch {
+    /// Whether `self` continues `other`'s source region: the same exemplar and
+    /// variant, and the offset between their windows in the source the offset between
+    /// them in the output, taken back through the variant (within [`CONTINUED_CELLS`]).
+    /// Such windows show each source cell once (where they overlap they agree), as the
+    /// windows that continue one coarse placement at the output level do
+    /// (`coarse_level::FormSources::inherit`): nothing is copied.
+    pub fn continues(&self, other: &PlacedPatch) -> bool {
+        if self.exemplar != other.exemplar || self.variant != other.variant {
+            return false;
+        }
+        let (dx, dy) = (self.cx as f32 - other.cx as f32, self.cy as f32 - other.cy as f32);
+        let (sx, sy) = ridgeline_terrain::patch_geometry::Variant(self.variant).inverse(dx, dy);
+        let (ex, ey) = (self.src_x as f32 - other.src_x as f32 - sx, self.src_y as f32 - other.src_y as f32 - sy);
+        ex.abs() <= CONTINUED_CELLS && ey.abs() <= CONTINUED_CELLS
+    }
+}
+
+/// Two windows continue one source region if their source offset is their output
+/// offset within this many cells each way (the rounding of an inherited window's
+/// centre, twice).
+pub const CONTINUED_CELLS: f32 = 2.0;
 
 /// Where each output cell came from: `cells[i]` indexes `placements` (`u32::MAX`:
 /// nothing placed there).
@@ -208,7 +235,9 @@ fn weights(sources: &[(String, Arc<SourceFigures>)], prov: Option<&Provenance>) 
 
 /// Share of the output cells whose placement copies a source window that overlaps
 /// (by more than half a patch each way) the window of an earlier placement from the
-/// same source, centred within [`REPEAT_RADIUS_PATCHES`] patches.
+/// same source, centred within [`REPEAT_RADIUS_PATCHES`] patches, unless it continues
+/// that placement's source region ([`PlacedPatch::continues`]: the two windows lie in
+/// the output as they lie in the source, so nothing is shown twice).
 pub fn repetition(p: &Provenance, patch: usize) -> f64 {
     let radius = REPEAT_RADIUS_PATCHES * patch.max(1) as f32;
     let half = (patch / 2) as i64;
@@ -230,7 +259,7 @@ pub fn repetition(p: &Provenance, patch: usize) -> f64 {
                     let near = ((pi.cx as f32 - pj.cx as f32).powi(2) + (pi.cy as f32 - pj.cy as f32).powi(2)).sqrt() <= radius;
                     let same =
                         (pi.src_x as i64 - pj.src_x as i64).abs() < half && (pi.src_y as i64 - pj.src_y as i64).abs() < half;
-                    if near && same {
+                    if near && same && !pj.continues(pi) {
                         repeated[j] = true;
                         break 'earlier;
                     }
@@ -281,7 +310,14 @@ pub fn provenance_of(canvas: &crate::canvas::Canvas, exemplars: &[ridgeline_terr
         placements: canvas
             .placements
             .iter()
-            .map(|p| PlacedPatch { exemplar: name(p.source), src_x: p.src_x, src_y: p.src_y, cx: p.cx, cy: p.cy })
+            .map(|p| PlacedPatch {
+                exemplar: name(p.source),
+                src_x: p.src_x,
+                src_y: p.src_y,
+                cx: p.cx,
+                cy: p.cy,
+                variant: p.variant,
+            })
             .collect(),
     }
 }

@@ -32,6 +32,7 @@ fn grid_provenance(w: usize, patch: usize, name: &str, src: impl Fn(usize) -> (u
                 src_y,
                 cx: (k % per_row) * patch + patch / 2,
                 cy: (k / per_row) * patch + patch / 2,
+                variant: 0,
             }
         })
         .collect();
@@ -106,8 +107,8 @@ fn a_repeated_patch_is_caught() {
     let far = Provenance {
         cells: vec![0, 1],
         placements: vec![
-            PlacedPatch { exemplar: "a".into(), src_x: 50, src_y: 50, cx: 0, cy: 0 },
-            PlacedPatch { exemplar: "a".into(), src_x: 50, src_y: 50, cx: 64 * 10, cy: 0 },
+            PlacedPatch { exemplar: "a".into(), src_x: 50, src_y: 50, cx: 0, cy: 0, variant: 0 },
+            PlacedPatch { exemplar: "a".into(), src_x: 50, src_y: 50, cx: 64 * 10, cy: 0, variant: 0 },
         ],
     };
     assert_eq!(repetition(&far, 64), 0.0);
@@ -115,9 +116,30 @@ fn a_repeated_patch_is_caught() {
     let other = Provenance {
         cells: vec![0, 1],
         placements: vec![
-            PlacedPatch { exemplar: "a".into(), src_x: 50, src_y: 50, cx: 0, cy: 0 },
-            PlacedPatch { exemplar: "b".into(), src_x: 50, src_y: 50, cx: 64, cy: 0 },
+            PlacedPatch { exemplar: "a".into(), src_x: 50, src_y: 50, cx: 0, cy: 0, variant: 0 },
+            PlacedPatch { exemplar: "b".into(), src_x: 50, src_y: 50, cx: 64, cy: 0, variant: 0 },
         ],
     };
     assert_eq!(repetition(&other, 64), 0.0);
+}
+
+#[test]
+fn windows_that_continue_one_source_region_are_no_repeat() {
+    use ridgeline_terrain::patch_geometry::Variant;
+    // placements every quarter patch, each the window of one source region (rotated by
+    // 90°: variant 2) at the offset it lies at in the output, as the windows that
+    // continue a coarse placement are: overlapping windows, nothing shown twice
+    let (w, patch) = (256usize, 64usize);
+    let continued = |variant: u8, recorded: u8| {
+        let mut prov = grid_provenance(w, patch / 4, "dem.png", |_| (0, 0));
+        for p in &mut prov.placements {
+            let (sx, sy) = Variant(variant).inverse(p.cx as f32 - 128.0, p.cy as f32 - 128.0);
+            (p.src_x, p.src_y, p.variant) = ((300.0 + sx).round() as u32, (300.0 + sy).round() as u32, recorded);
+        }
+        repetition(&prov, patch)
+    };
+    assert_eq!(continued(2, 2), 0.0);
+    assert_eq!(continued(0, 0), 0.0);
+    // the same windows taken as another variant's copy: repeats
+    assert!(continued(2, 0) > 0.5, "{}", continued(2, 0));
 }

@@ -392,6 +392,15 @@ impl BaseSurface {
         }
     }
 
+    /// [`BaseSurface::lay`] for the window that continues the coarse placement under
+    /// it (`coarse_level::FormSources::inherit`).
+    pub fn lay_inherited(&self, pixels: &[f32], under: &[f32]) -> Vec<f32> {
+        match self.detail {
+            Some(d) => detail_on(pixels, under, d.sigma),
+            _ => self.lay(pixels, under),
+        }
+    }
+
     /// This surface, with the patches laid on it keeping their own fall along its way
     /// down ([`downstream_tilt`]): the output level's large-scale target. (A coarse
     /// level's fills keep to the target's plane: there, at a kilometre of relief a

@@ -127,6 +127,58 @@
 //! (medians of three, interleaved; the coarse level 0.27 s and hole filling 0.75 s
 //! more, the conditioning 1.44 s less), the 8192² one 193.0 s against 194.9 s.
 //!
+//! **Inherited detail** ([`FormSources::inherit`]; Lefebvre and Hoppe 2005 upsample
+//! a coarse level's coordinates instead of searching afresh). The output level's
+//! fills came from the pool by their overlap alone, so the detail laid on a coarse
+//! valley was some other valley's, running its own way: its floor, whose fall in its
+//! own terrain came from the band below it, crossed the coarse valley's floor and
+//! closed a pit wherever it rose. Cut from real DEMs (colorado, alaska, pyrenees,
+//! 640² each) and laid on their own band above σ = 16 cells in 64-cell tiles from
+//! random places, a DEM's detail left 12–21% of the cells more than 5 m below the
+//! filled surface; laid where it came from, 0.04–0.77%, the DEM's own. So every
+//! output-level fill target now names the window that continues the coarse placement
+//! under it at the output's cell size: the same source and variant, centred where that
+//! placement maps the target's centre, `factor` times finer. The shard holding the
+//! source scores that window too, with a bonus (`costs::BETA_I`) and without the
+//! repetition penalty (`fill_scoring::with_inherited`, on the CPU whatever the backend),
+//! and a fill that takes it is laid with its detail below the band itself rather than
+//! twice the band (`BaseSurface::lay_inherited`): two windows of one terrain add up
+//! in amplitude, and cut at twice the band the 8–32-cell power came out doubled (the
+//! roughness ratio 0.77 against 1.01 on a 2048² sparse sketch; cut at the band, the
+//! coarse terrain and the detail are the two bands of one DEM's pyramid, 1.03). On
+//! that sketch 94% of the output level's fills took their inherited window (2,471 of
+//! the 2,626 that had one, in a first build). The repetition figure no longer counts a
+//! window that continues another's source region (`evaluation::PlacedPatch::continues`:
+//! each source cell shows once), or every inherited fill would count.
+//!
+//! Before (b9f1c87) and after, three 4096² pairs of `scripts/form-bench.py`, seeds 3
+//! and 4 (cells the conditioning lowered; closed before it; landform distance; seam
+//! score; roughness ratio; straight trenches):
+//!
+//! | pair, seed | lowered | closed before | landform | seam | roughness | straight |
+//! |---|---|---|---|---|---|---|
+//! | sparse-4096, 3 | 11.83 → 9.09% | 23.1 → 18.6% | 0.082 → 0.056 | 0.884 → 0.966 | 1.065 → 1.035 | 22 → 23 |
+//! | massif-4096, 3 | 11.33 → 9.14% | 20.3 → 16.5% | 0.075 → 0.059 | 0.902 → 0.965 | 1.123 → 1.065 | 18 → 32 |
+//! | traced-colorado-4096, 3 | 13.34 → 12.63% | 26.5 → 25.5% | 0.085 → 0.073 | 0.914 → 0.938 | 0.848 → 0.856 | 45 → 54 |
+//! | sparse-4096, 4 | 12.28 → 9.26% | 23.7 → 19.0% | 0.082 → 0.059 | 0.890 → 0.971 | 1.037 → 1.035 | 31 → 31 |
+//! | massif-4096, 4 | 11.39 → 9.01% | 20.7 → 17.3% | 0.075 → 0.058 | 0.905 → 0.972 | 1.122 → 1.085 | 23 → 36 |
+//! | traced-colorado-4096, 4 | 13.56 → 12.75% | 27.4 → 26.5% | 0.085 → 0.075 | 0.914 → 0.933 | 0.853 → 0.848 | 45 → 56 |
+//!
+//! Adherence stayed 0.994–1.000, the sink share at most 0.031% and the flat share
+//! below the sources' (0.006–0.047% against 0.69–1.52%). What got worse: the straight
+//! trenches on the massif and the traced sketch, and repetition (0.0085 → 0.0206 on
+//! the massif at seed 4, 0.0131 → 0.0282 on sparse-4096, 0.0017 → 0.0132 on
+//! traced-colorado-4096, the after figures without continued windows): a coarse
+//! level's repeats now carry their detail too. The
+//! traced sketch gains least: most of its strokes are placed again at the output
+//! level. Jobs got faster (fewer depressions to breach): sparse-4096 at 2048² 10.75
+//! → 9.66 s, massif-4096 43.2 → 36.7 s (medians of two after a warm-up, alternating).
+//! What the output level still leaves closed lies on the coarse terrain's gentlest
+//! ground: on the 2048² sparse sketch 48.6% of the cells where that terrain falls
+//! less than 2% (the floors the coarse level filled), 13.7% where it falls 10–20%,
+//! 6.8% where it falls more. (Patches keeping their falls at the coarse level too did
+//! not help there: 9.26% lowered against 9.01%.)
+//!
 //! **When.** Only where the coarse canvas is at least [`MIN_COARSE_PATCHES`] patches a
 //! side and the exemplars' cell size is known (to resample them): 2048² and larger at
 //! the default patch. Smaller outputs keep the single level.
@@ -134,13 +186,14 @@
 //! Deterministic like the output level: the coarse stages are the same stages, with
 //! the same seed.
 
-use crate::canvas::Canvas;
+use crate::canvas::{Canvas, Placement};
 use crate::stages::base_surface::{BaseSurface, CoarseBand};
 use crate::stages::drainage::{breach_under_sketch, Hybrid};
 use crate::stages::large_scale::{self, LargeScale, LibraryForm};
 use crate::stages::sketch::{self, Buckets, SketchFeatures, SketchInput, StrokeSketch};
 use crate::stages::user_patches::{self, UserPatch};
 use ridgeline_terrain::grid::Heightfield;
+use ridgeline_terrain::patch_geometry::{Variant, FEATURELESS_VARIANTS};
 use ridgeline_terrain::FeatureKind;
 
 /// The coarse level's cells are this many output cells a side.
@@ -282,19 +335,54 @@ pub struct FormSources {
     width: usize,
     height: usize,
     source: Vec<u32>,
+    /// The coarse placement of each coarse cell (`u32::MAX`: none), and the placements.
+    placement: Vec<u32>,
+    placements: Vec<Placement>,
 }
 
 impl FormSources {
     /// The sources of the coarse canvas `c`, whose cells are `factor` output cells a side.
     pub fn of(c: &Canvas, factor: usize) -> FormSources {
         let source = c.provenance.data.iter().map(|&id| c.placements.get(id as usize).map_or(u32::MAX, |p| p.source)).collect();
-        FormSources { factor, width: c.provenance.width, height: c.provenance.height, source }
+        FormSources {
+            factor,
+            width: c.provenance.width,
+            height: c.provenance.height,
+            source,
+            placement: c.provenance.data.clone(),
+            placements: c.placements.clone(),
+        }
     }
 
     /// The source under output cell (x, y) (`u32::MAX`: none).
     pub fn at(&self, x: usize, y: usize) -> u32 {
+        self.source[self.coarse_cell(x, y)]
+    }
+
+    fn coarse_cell(&self, x: usize, y: usize) -> usize {
         let (cx, cy) = ((x / self.factor).min(self.width - 1), (y / self.factor).min(self.height - 1));
-        self.source[cy * self.width + cx]
+        cy * self.width + cx
+    }
+
+    /// The window that continues the coarse placement under output cell (x, y) at the
+    /// output's cell size, for a fill centred there (`FillQuery::inherit`): the same
+    /// source and variant, centred where the coarse placement's window maps (x, y) in
+    /// the source, `factor` times finer. A fill's window turns about its geometric
+    /// centre (`patch_geometry::variant_maps`), a feature patch's about its centre cell
+    /// (`extract_patch`): the offset from that centre, in output cells, is taken back
+    /// through the variant, and the fill's window (turned about its own geometric
+    /// centre) is centred where that lands. `None` where no coarse placement lies under
+    /// (x, y) or its variant is not one of the exact featureless ones.
+    pub fn inherit(&self, x: usize, y: usize) -> Option<(u32, u32, u32, u8)> {
+        let p = self.placements.get(self.placement[self.coarse_cell(x, y)] as usize)?;
+        let vi = FEATURELESS_VARIANTS.iter().position(|v| v.0 == p.variant)?;
+        let f = self.factor as f32;
+        // the turning centre's offset from the coarse centre cell, in output cells
+        let turn = if p.featureless { 0.0 } else { f / 2.0 };
+        let (dx, dy) = (x as f32 - f * p.cx as f32 - turn, y as f32 - f * p.cy as f32 - turn);
+        let (sx, sy) = Variant(p.variant).inverse(dx, dy);
+        let (fx, fy) = ((f * p.src_x as f32 + turn + sx).round(), (f * p.src_y as f32 + turn + sy).round());
+        (p.source != u32::MAX && fx >= 0.0 && fy >= 0.0).then_some((p.source, fx as u32, fy as u32, vi as u8))
     }
 }
 
@@ -312,6 +400,64 @@ mod tests {
     use super::*;
     use crate::stages::sketch::analyse;
     use ridgeline_terrain::grid::Grid;
+
+    #[test]
+    fn the_inherited_window_is_the_coarse_placements_window_at_the_finer_cell_size() {
+        use ridgeline_terrain::patch_geometry::{extract_patch, variant_maps};
+        // a fine source, the coarse source its 4 x 4 box means, one coarse placement of
+        // a 16-cell window in each exact variant, a fill's (turned about its geometric
+        // centre) or a feature patch's (about its centre cell); the inherited 16-cell
+        // output windows, turned as a fill's are, must have 4 x 4 blocks that average to
+        // the coarse window's cells under them
+        let (f, n, pc, p) = (4usize, 256usize, 16usize, 16usize);
+        let fine = Grid::from_vec(n, n, (0..n * n).map(|i| ((i * 7919 + i / n * 104729) % 1000) as f32).collect());
+        let m = n / f;
+        let coarse = Grid::from_vec(
+            m,
+            m,
+            (0..m * m)
+                .map(|k| {
+                    let (x, y) = (k % m * f, k / m * f);
+                    (0..f * f).map(|j| fine.get(x + j % f, y + j / f)).sum::<f32>() / (f * f) as f32
+                })
+                .collect(),
+        );
+        let turned = |g: &Grid<f32>, x: u32, y: u32, side: usize, vi: usize| -> Vec<f32> {
+            let upright = extract_patch(g, x as usize, y as usize, side, Variant(0));
+            variant_maps(side)[vi].iter().map(|&k| upright[k as usize]).collect()
+        };
+        for ((vi, v), featureless) in FEATURELESS_VARIANTS.iter().enumerate().flat_map(|v| [(v, true), (v, false)]) {
+            let mut c = Canvas::new(40, 40, pc);
+            let id = c.record(Placement { source: 5, src_x: 30, src_y: 28, variant: v.0, cx: 20, cy: 20, featureless });
+            c.provenance.data.iter_mut().for_each(|q| *q = id);
+            let form = FormSources::of(&c, f);
+            let cells = if featureless { turned(&coarse, 30, 28, pc, vi) } else { extract_patch(&coarse, 30, 28, pc, *v) };
+            for (ox, oy) in [(0i64, 0i64), (6, -5), (-12, 9), (3, 17)] {
+                let (x, y) = ((f as i64 * 20 + ox) as usize, (f as i64 * 20 + oy) as usize);
+                let (s, fx, fy, got) = form.inherit(x, y).unwrap();
+                assert_eq!((s, got), (5, vi as u8));
+                let w = turned(&fine, fx, fy, p, vi);
+                let (x0, y0) = (x - p / 2, y - p / 2);
+                let mut blocks = 0;
+                for by in (y0.div_ceil(f) * f..y0 + p).step_by(f).filter(|b| b + f <= y0 + p) {
+                    for bx in (x0.div_ceil(f) * f..x0 + p).step_by(f).filter(|b| b + f <= x0 + p) {
+                        let mean = (0..f * f).map(|j| w[(by - y0 + j / f) * p + bx - x0 + j % f]).sum::<f32>() / (f * f) as f32;
+                        let (ci, cj) = (bx / f + pc / 2 - 20, by / f + pc / 2 - 20);
+                        assert!((mean - cells[cj * pc + ci]).abs() < 1e-2, "variant {vi} ({featureless}), offset ({ox}, {oy})");
+                        blocks += 1;
+                    }
+                }
+                assert!(blocks >= 9);
+            }
+        }
+        // no coarse placement under the cell, or a variant no featureless window has
+        let empty = FormSources::of(&Canvas::new(40, 40, pc), f);
+        assert_eq!(empty.inherit(80, 80), None);
+        let mut c = Canvas::new(40, 40, pc);
+        let id = c.record(Placement { source: 5, src_x: 30, src_y: 28, variant: 1, cx: 20, cy: 20, featureless: false });
+        c.provenance.data.iter_mut().for_each(|q| *q = id);
+        assert_eq!(FormSources::of(&c, f).inherit(80, 80), None);
+    }
 
     #[test]
     fn only_large_outputs_get_a_coarse_level() {

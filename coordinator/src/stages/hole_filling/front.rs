@@ -293,13 +293,18 @@ impl TileFill {
         let (cx, cy) = (t.cx, t.cy);
         let p = self.sub.patch;
         let band = fill_band(p);
+        let inherit = env.form.and_then(|f| f.inherit(cx, cy));
+        let is_inherited = |c: &FillCandidate| inherit == Some((c.source, c.x, c.y, c.variant));
         let placed = cut_and_merge(
             &mut self.sub,
             &t,
             &order,
             // each candidate laid as merged, and what it would dam (`dams`)
             &|i| {
-                let laid = env.base.lay(&cands[i].pixels, &base);
+                let laid = match is_inherited(&cands[i]) {
+                    true => env.base.lay_inherited(&cands[i].pixels, &base),
+                    false => env.base.lay(&cands[i].pixels, &base),
+                };
                 let dam = dam_cost(&t, &laid, relief);
                 (laid, dam)
             },
@@ -372,6 +377,7 @@ pub(super) fn fill_query(canvas: &Canvas, cx: usize, cy: usize, env: &FillEnv) -
         noise: t.noise,
         coherence: coherence(canvas, &t.win, t.filled, env.form),
         avoid: canvas.avoid_list(cx, cy),
+        inherit: env.form.and_then(|f| f.inherit(cx, cy)),
     };
     (q, (t, relief, base))
 }

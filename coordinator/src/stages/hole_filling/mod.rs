@@ -32,7 +32,12 @@
 //! (seed 2 massif on the 16 shared DEMs, seed 5 mixed-1024 upscaled on 15 without
 //! alaska) the roughness ratio went from 1.094 and 0.966 to 1.025 and 1.002,
 //! repetition from 0.0054 and 0.0076 to 0.0045 and 0.0041, and conditioning lowered
-//! 8% and 6% fewer cells by more than 10 m; the other figures moved by noise.
+//! 8% and 6% fewer cells by more than 10 m; the other figures moved by noise. Each
+//! target also names the window that continues the coarse placement under it at the
+//! output's cell size (`FillQuery::inherit`, `coarse_level::FormSources::inherit`),
+//! which the shard holding its source scores with a bonus: the detail of a landform
+//! is then, where its overlap allows, the very terrain that made the landform (see
+//! `coarse_level`, "Inherited detail").
 //!
 //! **Scoring where the pool lives.** In each *wave* every active tile of the phase
 //! pops its best target and describes it as a [`FillQuery`] (the known cells of the
@@ -212,7 +217,7 @@ pub fn fill_holes(
         // nothing placed (a sketch without strokes): start from one featureless patch,
         // the one the seed's jitter ranks first
         let coherence = front::coherence(canvas, &canvas.window(w / 2, h / 2), 0, set.form);
-        let q = FillQuery { id: 0, samples: Vec::new(), relief: 1.0, noise: None, coherence, avoid: Vec::new() };
+        let q = FillQuery { id: 0, samples: Vec::new(), relief: 1.0, noise: None, coherence, avoid: Vec::new(), inherit: None };
         let best = score_wave(shards, level, &[q], seed, pool)?.remove(0);
         let c = best.first().ok_or(FillError::NoCandidates)?;
         let pixels = match set.base {
