@@ -107,7 +107,8 @@ pub fn exact_cost(q: &FillQuery, prep: &Prepared, s: &Source, ci: usize, vi: usi
 /// in f64 on the CPU whatever the backend (so the bytes do not depend on it), less
 /// the inheritance bonus [`BETA_I`] and without the repetition penalty (the windows
 /// that continue one coarse placement lie next to each other in their source), and
-/// ranked among the backend's best-set, which keeps its `k` best.
+/// ranked among the backend's best-set (in place of the same window there, which the
+/// pool may hold), which keeps its `k` best.
 pub fn with_inherited(
     sources: &[Source],
     maps: &[Vec<u32>],
@@ -119,9 +120,6 @@ pub fn with_inherited(
 ) -> FillBestSet {
     let Some((id, x, y, vi)) = q.inherit else { return set };
     let Some(s) = sources.iter().find(|s| s.id == id) else { return set };
-    if set.entries.iter().any(|e| (e.source, e.x, e.y, e.variant) == (id, x, y, vi)) {
-        return set;
-    }
     let Some(c) = crate::candidates::window_at(&s.heights, x as usize, y as usize, patch) else { return set };
     // only the inherited variant's gather is needed
     let prep = Prepared {
@@ -145,6 +143,7 @@ pub fn with_inherited(
         pixels: maps[vi as usize].iter().map(|&m| c.pixels[m as usize]).collect(),
     };
     let mut entries = set.entries;
+    entries.retain(|e| (e.source, e.x, e.y, e.variant) != (id, x, y, vi));
     entries.push(inherited);
     entries.sort_by(|a, b| a.cost.total_cmp(&b.cost).then((a.source, a.y, a.x, a.variant).cmp(&(b.source, b.y, b.x, b.variant))));
     entries.truncate(k);
