@@ -84,8 +84,12 @@ pub struct FillQuery {
     /// scored too, with the inheritance bonus (`costs::BETA_I`), by the shard that
     /// holds the source at this level.
     #[serde(default)]
-    pub inherit: Option<(u32, u32, u32, u8)>,
+    pub inherit: Option<Inherit>,
 }
+
+/// A fill target's inherited window: source, centre x and y, index into
+/// `FEATURELESS_VARIANTS` ([`FillQuery::inherit`]).
+pub type Inherit = (u32, u32, u32, u8);
 
 /// A scored featureless candidate: identity, cost, and its pixels in the variant
 /// (patch x patch, output frame, metres).

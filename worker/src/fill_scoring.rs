@@ -48,9 +48,21 @@ pub struct Prepared {
 }
 
 pub fn prepare(maps: &[Vec<u32>], q: &FillQuery) -> Prepared {
+    prepare_variants(maps, q, |_| true)
+}
+
+/// [`prepare`] with the gathers of the variants `wanted` takes only (the others empty).
+fn prepare_variants(maps: &[Vec<u32>], q: &FillQuery, wanted: impl Fn(usize) -> bool) -> Prepared {
     Prepared {
         values: q.samples.iter().map(|s| s.1).collect(),
-        mapped: maps.iter().map(|map| q.samples.iter().map(|&(i, _)| map[i as usize]).collect()).collect(),
+        mapped: maps
+            .iter()
+            .enumerate()
+            .map(|(v, map)| match wanted(v) {
+                true => q.samples.iter().map(|&(i, _)| map[i as usize]).collect(),
+                false => Vec::new(),
+            })
+            .collect(),
         relief: target_relief(q, maps.first().map_or(0, |m| m.len())),
     }
 }
@@ -122,16 +134,7 @@ pub fn with_inherited(
     let Some(s) = sources.iter().find(|s| s.id == id) else { return set };
     let Some(c) = crate::candidates::window_at(&s.heights, x as usize, y as usize, patch) else { return set };
     // only the inherited variant's gather is needed
-    let prep = Prepared {
-        values: q.samples.iter().map(|s| s.1).collect(),
-        mapped: (0..maps.len())
-            .map(|v| match v == vi as usize {
-                true => q.samples.iter().map(|&(i, _)| maps[v][i as usize]).collect(),
-                false => Vec::new(),
-            })
-            .collect(),
-        relief: target_relief(q, patch * patch),
-    };
+    let prep = prepare_variants(maps, q, |v| v == vi as usize);
     let t = Terms { noise: q.noise.map(|u| noise_cost(&u, &c.noise)).unwrap_or(0.0), coherence: coherence(q, id), repeat: 0.0 };
     let Some(cost) = cost_within(q, &prep, id, &c, vi as usize, seed, &t, f32::INFINITY) else { return set };
     let inherited = FillCandidate {

@@ -202,7 +202,7 @@ impl ShardScorer for InProcessShard {
         let t = std::time::Instant::now();
         let sets = lv.backend.fill(&lv.sources, &lv.maps, targets, seed, k, lv.spec.patch);
         let sets: Vec<FillBestSet> = sets
-            .into_iter()
+            .into_par_iter()
             .zip(targets)
             .map(|(set, q)| fill_scoring::with_inherited(&lv.sources, &lv.maps, q, seed, k, lv.spec.patch, set))
             .collect();

@@ -199,6 +199,7 @@ use crate::stages::sketch::{self, Buckets, SketchFeatures, SketchInput, StrokeSk
 use crate::stages::user_patches::{self, UserPatch};
 use ridgeline_terrain::grid::Heightfield;
 use ridgeline_terrain::patch_geometry::{Variant, FEATURELESS_VARIANTS};
+use ridgeline_terrain::shard::Inherit;
 use ridgeline_terrain::FeatureKind;
 
 /// The coarse level's cells are this many output cells a side.
@@ -339,7 +340,6 @@ pub struct FormSources {
     factor: usize,
     width: usize,
     height: usize,
-    source: Vec<u32>,
     /// The coarse placement of each coarse cell (`u32::MAX`: none), and the placements.
     placement: Vec<u32>,
     placements: Vec<Placement>,
@@ -348,12 +348,10 @@ pub struct FormSources {
 impl FormSources {
     /// The sources of the coarse canvas `c`, whose cells are `factor` output cells a side.
     pub fn of(c: &Canvas, factor: usize) -> FormSources {
-        let source = c.provenance.data.iter().map(|&id| c.placements.get(id as usize).map_or(u32::MAX, |p| p.source)).collect();
         FormSources {
             factor,
             width: c.provenance.width,
             height: c.provenance.height,
-            source,
             placement: c.provenance.data.clone(),
             placements: c.placements.clone(),
         }
@@ -361,12 +359,13 @@ impl FormSources {
 
     /// The source under output cell (x, y) (`u32::MAX`: none).
     pub fn at(&self, x: usize, y: usize) -> u32 {
-        self.source[self.coarse_cell(x, y)]
+        self.placed_under(x, y).map_or(u32::MAX, |p| p.source)
     }
 
-    fn coarse_cell(&self, x: usize, y: usize) -> usize {
+    /// The coarse placement under output cell (x, y).
+    fn placed_under(&self, x: usize, y: usize) -> Option<&Placement> {
         let (cx, cy) = ((x / self.factor).min(self.width - 1), (y / self.factor).min(self.height - 1));
-        cy * self.width + cx
+        self.placements.get(self.placement[cy * self.width + cx] as usize)
     }
 
     /// The window that continues the coarse placement under output cell (x, y) at the
@@ -378,8 +377,8 @@ impl FormSources {
     /// through the variant, and the fill's window (turned about its own geometric
     /// centre) is centred where that lands. `None` where no coarse placement lies under
     /// (x, y) or its variant is not one of the exact featureless ones.
-    pub fn inherit(&self, x: usize, y: usize) -> Option<(u32, u32, u32, u8)> {
-        let p = self.placements.get(self.placement[self.coarse_cell(x, y)] as usize)?;
+    pub fn inherit(&self, x: usize, y: usize) -> Option<Inherit> {
+        let p = self.placed_under(x, y)?;
         let vi = FEATURELESS_VARIANTS.iter().position(|v| v.0 == p.variant)?;
         let f = self.factor as f32;
         // the turning centre's offset from the coarse centre cell, in output cells

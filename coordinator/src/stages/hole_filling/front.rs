@@ -51,7 +51,7 @@ use crate::stages::base_surface::BaseSurface;
 use crate::stages::coarse_level::FormSources;
 use crate::stages::merge::SeamLimits;
 use crate::stages::window_scoring::{cut_and_merge, Target};
-use ridgeline_terrain::shard::{FillCandidate, FillQuery};
+use ridgeline_terrain::shard::{FillCandidate, FillQuery, Inherit};
 use std::cmp::Reverse;
 use std::collections::{BTreeMap, BinaryHeap};
 use std::time::Instant;
@@ -171,8 +171,9 @@ pub(super) struct TileFill {
     pub(super) ys: Vec<usize>,
     pub(super) version: Vec<u32>,
     pub(super) heap: BinaryHeap<(u32, Reverse<u32>, u32)>,
-    /// The popped target, its relief, and the base surface over its patch.
-    pub(super) pending: Option<(Target, f32, Vec<f32>)>,
+    /// The popped target, its relief, the base surface over its patch, and the window
+    /// its query inherits (`FillQuery::inherit`).
+    pub(super) pending: Option<(Target, f32, Vec<f32>, Option<Inherit>)>,
     pub(super) fills: usize,
     pub(super) max_fills: usize,
     pub(super) initial_empty: usize,
@@ -276,10 +277,10 @@ impl TileFill {
                 continue;
             }
             let (cx, cy) = self.centre(k as usize);
-            let q = fill_query(&self.sub, cx, cy, env);
-            self.pending = Some(q.1);
+            let (q, (t, relief, base)) = fill_query(&self.sub, cx, cy, env);
+            self.pending = Some((t, relief, base, q.inherit));
             self.target_s += t0.elapsed().as_secs_f64();
-            return Some(q.0);
+            return Some(q);
         }
         None
     }
@@ -288,12 +289,11 @@ impl TileFill {
     /// refreshes the front around it. A tile whose target gets no candidate stops.
     pub(super) fn apply(&mut self, cands: &[FillCandidate], env: &FillEnv) {
         let t0 = Instant::now();
-        let Some((t, relief, base)) = self.pending.take() else { return };
+        let Some((t, relief, base, inherit)) = self.pending.take() else { return };
         let order: Vec<(f32, usize)> = cands.iter().enumerate().map(|(i, c)| (c.cost, i)).collect();
         let (cx, cy) = (t.cx, t.cy);
         let p = self.sub.patch;
         let band = fill_band(p);
-        let inherit = env.form.and_then(|f| f.inherit(cx, cy));
         let is_inherited = |c: &FillCandidate| inherit == Some((c.source, c.x, c.y, c.variant));
         let placed = cut_and_merge(
             &mut self.sub,
